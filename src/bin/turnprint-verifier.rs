@@ -1,0 +1,6 @@
+//! The visual verifier sidecar.
+
+fn main() {
+    eprintln!("turnprint-verifier: not built yet");
+    std::process::exit(2);
+}

@@ -1,0 +1,19 @@
+//! turnprint finds where robot paths overlap by the shape of their turns, with
+//! no knowledge of scale, frame or direction of travel.
+//!
+//! The modules mirror the data flow of `DESIGN.md`:
+//!
+//! ```text
+//! io -> geometry::plane -> track -> signature -> segments
+//!    -> matching (ZNCC) -> align (RANSAC, grow, refit) -> hypotheses
+//!    -> pipeline (match / loops / merge)   online (one pose at a time)
+//! ```
+//!
+//! The online detector reuses the batch stages; the verifier sidecar lives
+//! behind the `verifier` feature so the core builds without OpenCV.
+
+pub mod error;
+pub mod trajectory;
+
+pub use error::{Error, Result};
+pub use trajectory::{Pose, Trajectory};
