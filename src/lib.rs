@@ -17,3 +17,7 @@ pub mod trajectory;
 
 pub use error::{Error, Result};
 pub use trajectory::{Pose, Trajectory};
+pub mod hypothesis;
+pub mod pipeline;
+
+pub use hypothesis::Hypothesis;

@@ -1,0 +1,61 @@
+//! A hypothesis: "this part of B is that part of A", with the similarity that
+//! maps B onto A and the evidence behind it.
+
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+
+/// One ranked overlap hypothesis between path A and path B.
+///
+/// For loops, A is the later (query) part and B the earlier (match) part of
+/// the same path. The similarity maps B into A's frame:
+/// `p_A = scale * rotation * p_B + translation`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hypothesis {
+    /// 1-based rank after sorting by score.
+    pub rank: usize,
+    /// Likelihood of a true overlap, in [0, 1].
+    pub score: f64,
+    /// ZNCC of the curvature signatures over the matched part.
+    pub zncc: f64,
+    /// True when B travels the common part in the opposite direction.
+    pub reversed: bool,
+    /// Inclusive pose-index range in A.
+    pub a_range: [usize; 2],
+    /// Inclusive pose-index range in B.
+    pub b_range: [usize; 2],
+    /// Uniform scale of `a_T_b`.
+    pub scale: f64,
+    /// Proper rotation of `a_T_b`.
+    pub rotation: Matrix3<f64>,
+    /// Translation of `a_T_b`.
+    pub translation: Vector3<f64>,
+    /// RMS distance (A's units) between transformed matched B and A.
+    pub rmse: f64,
+    /// Total turning (radians) inside the common part: the evidence.
+    pub turning: f64,
+    /// Matched pose pairs (a index, b index) used for the final fit.
+    pub correspondences: Vec<(usize, usize)>,
+}
+
+impl Hypothesis {
+    /// Maps a point of B into A's frame.
+    pub fn transform(&self, p_b: &Vector3<f64>) -> Vector3<f64> {
+        self.scale * (self.rotation * p_b) + self.translation
+    }
+}
+
+/// JSON form of a hypothesis, field names per `cli.md`.
+#[derive(Debug, Serialize)]
+pub struct HypothesisJson {
+    pub rank: usize,
+    pub score: f64,
+    pub zncc: f64,
+    pub reversed: bool,
+    pub a_range: [usize; 2],
+    pub b_range: [usize; 2],
+    pub scale: f64,
+    pub rotation: [[f64; 3]; 3],
+    pub translation: [f64; 3],
+    pub rmse: f64,
+    pub turning_deg: f64,
+}
