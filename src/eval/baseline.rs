@@ -52,10 +52,17 @@ impl Naive {
         }
         // (query first, query last, match min, match max, last match, distances)
         let mut groups: Vec<(usize, usize, usize, usize, usize, Vec<f64>)> = Vec::new();
-        for (i, n) in nearest_earlier(positions, self.min_gap).into_iter().enumerate() {
-            let Some((j, d)) = n.filter(|(_, d)| *d <= threshold) else { continue };
+        for (i, n) in nearest_earlier(positions, self.min_gap)
+            .into_iter()
+            .enumerate()
+        {
+            let Some((j, d)) = n.filter(|(_, d)| *d <= threshold) else {
+                continue;
+            };
             match groups.last_mut() {
-                Some(g) if i - g.1 <= self.max_gap + 1 && j.abs_diff(g.4) <= self.max_match_jump => {
+                Some(g)
+                    if i - g.1 <= self.max_gap + 1 && j.abs_diff(g.4) <= self.max_match_jump =>
+                {
                     g.1 = i;
                     g.2 = g.2.min(j);
                     g.3 = g.3.max(j);
@@ -125,7 +132,13 @@ mod tests {
         let p: Vec<_> = loop_path(1.0)
             .into_iter()
             .enumerate()
-            .map(|(i, v)| if i >= 380 { v + Vector3::new(0.0, 18.0, 0.0) } else { v })
+            .map(|(i, v)| {
+                if i >= 380 {
+                    v + Vector3::new(0.0, 18.0, 0.0)
+                } else {
+                    v
+                }
+            })
             .collect();
         assert!(Naive::default().loops(&p).is_empty());
     }

@@ -23,9 +23,14 @@ pub struct Overlap {
 /// positions. Brute force over all pairs.
 pub fn overlap(a_true: &[Vector3<f64>], b_true: &[Vector3<f64>], radius: f64) -> Overlap {
     let r2 = radius * radius;
-    let near = |p: &Vector3<f64>, q: &[Vector3<f64>]| q.iter().any(|x| (x - p).norm_squared() <= r2);
-    let a: Vec<usize> = (0..a_true.len()).filter(|&i| near(&a_true[i], b_true)).collect();
-    let b: Vec<usize> = (0..b_true.len()).filter(|&k| near(&b_true[k], a_true)).collect();
+    let near =
+        |p: &Vector3<f64>, q: &[Vector3<f64>]| q.iter().any(|x| (x - p).norm_squared() <= r2);
+    let a: Vec<usize> = (0..a_true.len())
+        .filter(|&i| near(&a_true[i], b_true))
+        .collect();
+    let b: Vec<usize> = (0..b_true.len())
+        .filter(|&k| near(&b_true[k], a_true))
+        .collect();
     let length = b
         .windows(2)
         .filter(|w| w[1] == w[0] + 1)
@@ -123,8 +128,14 @@ impl From<&Hypothesis> for LoopClaim {
 /// match ranges share poses is the trivial self-match (which `cli.md` rules
 /// out) and counts as wrong; so does a range outside the input.
 pub fn loop_correct(claim: &LoopClaim, truth: &[Vector3<f64>], radius: f64) -> bool {
-    let (q0, q1) = (claim.query[0].min(claim.query[1]), claim.query[0].max(claim.query[1]));
-    let (m0, m1) = (claim.matched[0].min(claim.matched[1]), claim.matched[0].max(claim.matched[1]));
+    let (q0, q1) = (
+        claim.query[0].min(claim.query[1]),
+        claim.query[0].max(claim.query[1]),
+    );
+    let (m0, m1) = (
+        claim.matched[0].min(claim.matched[1]),
+        claim.matched[0].max(claim.matched[1]),
+    );
     if q1 >= truth.len() || m1 >= truth.len() || (q0 <= m1 && m0 <= q1) {
         return false;
     }
@@ -154,7 +165,12 @@ mod tests {
         (0..n).map(|i| Vector3::new(i as f64, y, 0.0)).collect()
     }
 
-    fn hypothesis(scale: f64, translation: Vector3<f64>, a: [usize; 2], b: [usize; 2]) -> Hypothesis {
+    fn hypothesis(
+        scale: f64,
+        translation: Vector3<f64>,
+        a: [usize; 2],
+        b: [usize; 2],
+    ) -> Hypothesis {
         Hypothesis {
             rank: 1,
             score: 0.5,
@@ -175,7 +191,10 @@ mod tests {
     fn overlap_of_shifted_windows() {
         // A covers x in [0, 499], B covers x in [300, 899] (true positions).
         let a = line(500, 0.0);
-        let b: Vec<_> = line(600, 0.0).iter().map(|p| p + Vector3::new(300.0, 0.0, 0.0)).collect();
+        let b: Vec<_> = line(600, 0.0)
+            .iter()
+            .map(|p| p + Vector3::new(300.0, 0.0, 0.0))
+            .collect();
         let o = overlap(&a, &b, 8.0);
         assert_eq!(o.a.first(), Some(&292));
         assert_eq!(o.b.last(), Some(&207));
@@ -185,16 +204,24 @@ mod tests {
     #[test]
     fn merge_verdict_accepts_the_true_similarity_only() {
         let a = line(500, 0.0);
-        let b_true: Vec<_> = line(600, 0.0).iter().map(|p| p + Vector3::new(300.0, 0.0, 0.0)).collect();
+        let b_true: Vec<_> = line(600, 0.0)
+            .iter()
+            .map(|p| p + Vector3::new(300.0, 0.0, 0.0))
+            .collect();
         // B's input is the truth at scale 0.1, shifted by (5, 0, 0).
-        let b_input: Vec<_> = b_true.iter().map(|p| p * 0.1 + Vector3::new(5.0, 0.0, 0.0)).collect();
+        let b_input: Vec<_> = b_true
+            .iter()
+            .map(|p| p * 0.1 + Vector3::new(5.0, 0.0, 0.0))
+            .collect();
         let o = overlap(&a, &b_true, 8.0);
         let good = hypothesis(10.0, Vector3::new(-50.0, 0.0, 0.0), [300, 499], [0, 199]);
         assert!(merge_verdict(&good, &b_input, &b_true, &o).correct);
         // 6 m off (tolerance is max(2 % of 207 m, 3 m) = 4.1 m).
         let off = hypothesis(10.0, Vector3::new(-44.0, 0.0, 0.0), [300, 499], [0, 199]);
         let v = merge_verdict(&off, &b_input, &b_true, &o);
-        assert!(!v.correct && (v.median_error - 6.0).abs() < 1e-9 && (v.tolerance - 4.14).abs() < 1e-9);
+        assert!(
+            !v.correct && (v.median_error - 6.0).abs() < 1e-9 && (v.tolerance - 4.14).abs() < 1e-9
+        );
         // Right similarity, but B's range misses the overlap.
         let miss = hypothesis(10.0, Vector3::new(-50.0, 0.0, 0.0), [300, 499], [400, 599]);
         assert!(!merge_verdict(&miss, &b_input, &b_true, &o).correct);
@@ -206,7 +233,11 @@ mod tests {
         let mut truth = line(100, 0.0);
         truth.extend(line(100, 50.0));
         truth.extend(line(100, 5.0));
-        let claim = |q: [usize; 2], m: [usize; 2]| LoopClaim { query: q, matched: m, score: 1.0 };
+        let claim = |q: [usize; 2], m: [usize; 2]| LoopClaim {
+            query: q,
+            matched: m,
+            score: 1.0,
+        };
         assert!(loop_correct(&claim([200, 299], [0, 99]), &truth, 10.0));
         assert!(!loop_correct(&claim([100, 199], [0, 99]), &truth, 10.0));
         // Overlapping ranges are the trivial self-match.

@@ -152,7 +152,10 @@ pub fn load_sequence(dir: &Path, name: &str) -> Result<Sequence> {
         if gps_path.is_file() {
             let rows = reader::gps_csv(&gps_path)?;
             seq.gps = Some(align_gps(&seq, &rows).ok_or_else(|| {
-                Error::input(gps_path.display().to_string(), "GPS does not align with KITTI 00")
+                Error::input(
+                    gps_path.display().to_string(),
+                    "GPS does not align with KITTI 00",
+                )
             })?);
         }
     }
@@ -177,7 +180,11 @@ pub fn align_gps(seq: &Sequence, rows: &[(f64, Vector3<f64>)]) -> Option<(Source
             return None;
         }
         let sim = umeyama(&src, &dst)?;
-        let sq: f64 = src.iter().zip(&dst).map(|(s, d)| (sim.apply(s) - d).norm_squared()).sum();
+        let sq: f64 = src
+            .iter()
+            .zip(&dst)
+            .map(|(s, d)| (sim.apply(s) - d).norm_squared())
+            .sum();
         Some(((sq / src.len() as f64).sqrt(), sim.scale, src.len()))
     };
     let base = rows.first()?.0 - seq.times[0];

@@ -51,7 +51,8 @@ impl DriftModel {
         let sd = self.knot_spacing.sqrt();
         let (mut theta, mut lambda) = (vec![0.0; knots], vec![0.0; knots]);
         for k in 1..knots {
-            theta[k] = theta[k - 1] + self.heading_deg_per_sqrt_len.to_radians() * sd * gaussian(rng);
+            theta[k] =
+                theta[k - 1] + self.heading_deg_per_sqrt_len.to_radians() * sd * gaussian(rng);
             lambda[k] = lambda[k - 1] + self.log_scale_per_sqrt_len * sd * gaussian(rng);
         }
         let at = |v: &[f64], s: f64| {

@@ -14,7 +14,7 @@ use super::checks::{loop_correct, LoopClaim};
 use super::drift::DriftModel;
 use super::similarity::random_similarity;
 use super::{Prepared, Source};
-use crate::pipeline::{find_loops, Config};
+use crate::pipeline::find_loops;
 use crate::Trajectory;
 
 /// A loop is correct when its query poses lie within this (median, m) of
@@ -46,7 +46,12 @@ pub struct LoopRun {
 }
 
 /// The input path of a run and its ground-truth frame per pose.
-fn input(p: &Prepared, source: Source, rng: &mut StdRng, drift: &DriftModel) -> (Vec<Vector3<f64>>, Vec<f64>) {
+fn input(
+    p: &Prepared,
+    source: Source,
+    rng: &mut StdRng,
+    drift: &DriftModel,
+) -> (Vec<Vector3<f64>>, Vec<f64>) {
     let seq = &p.seq;
     let all_frames = || (0..seq.gt.len()).map(|f| f as f64).collect();
     match source {
@@ -63,7 +68,10 @@ fn score(
     frames: &[f64],
     p: &Prepared,
 ) -> (usize, usize, usize, bool) {
-    let ok: Vec<bool> = claims.iter().map(|c| loop_correct(c, truth, LOOP_RADIUS_M)).collect();
+    let ok: Vec<bool> = claims
+        .iter()
+        .map(|c| loop_correct(c, truth, LOOP_RADIUS_M))
+        .collect();
     let covered = p
         .events
         .iter()
@@ -75,7 +83,12 @@ fn score(
         })
         .count();
     let correct = ok.iter().filter(|x| **x).count();
-    (covered, claims.len(), correct, ok.first().copied().unwrap_or(false))
+    (
+        covered,
+        claims.len(),
+        correct,
+        ok.first().copied().unwrap_or(false),
+    )
 }
 
 /// Runs `find_loops` and the naive baseline on one input (sequence, source,
@@ -84,22 +97,28 @@ pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [Loop
     let mut rng = StdRng::seed_from_u64(seed);
     let (positions, frames) = input(p, source, &mut rng, drift);
     let truth: Vec<Vector3<f64>> = frames.iter().map(|f| p.seq.true_position(*f)).collect();
-    let extent = positions.iter().map(|q| (q - positions[0]).norm()).fold(0.0, f64::max);
+    let extent = positions
+        .iter()
+        .map(|q| (q - positions[0]).norm())
+        .fold(0.0, f64::max);
     let sim = random_similarity(&mut rng, extent.max(1.0));
     let positions: Vec<_> = positions.iter().map(|q| sim.apply(q)).collect();
     let traj = Trajectory::from_positions(format!("{}-{}", p.seq.name, source.name()), &positions);
 
-    let config = Config {
-        top_k: TOP_K,
-        ..Config::default()
-    };
+    let config = super::pipeline_config(TOP_K);
     let start = Instant::now();
     let found = find_loops(&traj, &config);
     let tp_seconds = start.elapsed().as_secs_f64();
     let (tp_claims, tp_error) = match found {
         Ok(mut h) => {
             h.sort_by(|x, y| y.score.total_cmp(&x.score));
-            (h.iter().take(TOP_K).map(LoopClaim::from).collect::<Vec<_>>(), None)
+            (
+                h.iter()
+                    .take(TOP_K)
+                    .map(LoopClaim::from)
+                    .collect::<Vec<_>>(),
+                None,
+            )
         }
         Err(e) => (Vec::new(), Some(e.to_string())),
     };

@@ -12,7 +12,7 @@ use super::checks::{merge_verdict, overlap};
 use super::similarity::{random_similarity, rotation_error_deg, scale_error_pct, umeyama};
 use super::windows::{overlapping_window, random_window, revisit_windows, Window, WindowSpec};
 use super::{Prepared, Source};
-use crate::pipeline::{match_paths, Config};
+use crate::pipeline::match_paths;
 use crate::{Hypothesis, Trajectory};
 
 /// Radius (m) within which ground-truth positions count as the same road.
@@ -73,7 +73,10 @@ fn cut(p: &Prepared, source: Source, w: Window) -> Cut {
     let seq = &p.seq;
     let (lo, hi) = (w[0] as f64, w[1] as f64);
     let (positions, frames): (Vec<Vector3<f64>>, Vec<f64>) = match source {
-        Source::Gt | Source::Drift => (seq.gt[w[0]..=w[1]].to_vec(), (w[0]..=w[1]).map(|f| f as f64).collect()),
+        Source::Gt | Source::Drift => (
+            seq.gt[w[0]..=w[1]].to_vec(),
+            (w[0]..=w[1]).map(|f| f as f64).collect(),
+        ),
         Source::Mono => keep(&seq.mono.positions, &seq.mono.frames, lo, hi),
         Source::Gps => match &seq.gps {
             Some((g, _)) => keep(&g.positions, &g.frames, lo, hi),
@@ -101,17 +104,22 @@ fn disguise(rng: &mut impl Rng, mut b: Cut) -> (Cut, bool, f64) {
         b.input.reverse();
         b.truth.reverse();
     }
-    let extent = b.input.iter().map(|p| (p - b.input[0]).norm()).fold(0.0, f64::max);
+    let extent = b
+        .input
+        .iter()
+        .map(|p| (p - b.input[0]).norm())
+        .fold(0.0, f64::max);
     let sim = random_similarity(rng, extent.max(1.0));
     b.input = b.input.iter().map(|p| sim.apply(p)).collect();
     (b, reversed, sim.scale)
 }
 
-fn run_match(a: &Trajectory, b: &Trajectory, top_k: usize) -> (Vec<Hypothesis>, f64, Option<String>) {
-    let config = Config {
-        top_k,
-        ..Config::default()
-    };
+fn run_match(
+    a: &Trajectory,
+    b: &Trajectory,
+    top_k: usize,
+) -> (Vec<Hypothesis>, f64, Option<String>) {
+    let config = super::pipeline_config(top_k);
     let start = Instant::now();
     let out = match_paths(a, b, &config);
     let seconds = start.elapsed().as_secs_f64();
@@ -126,9 +134,18 @@ fn run_match(a: &Trajectory, b: &Trajectory, top_k: usize) -> (Vec<Hypothesis>, 
 }
 
 /// Draws and runs one positive case (`None`: the draw did not fit, retry).
-pub fn positive_case(rng: &mut impl Rng, p: &Prepared, source: Source, spec: &WindowSpec) -> Option<MergeCase> {
+pub fn positive_case(
+    rng: &mut impl Rng,
+    p: &Prepared,
+    source: Source,
+    spec: &WindowSpec,
+) -> Option<MergeCase> {
     let arc = &p.seq.arc;
-    let long_events: Vec<_> = p.events.iter().filter(|e| e.length >= spec.overlap.0).collect();
+    let long_events: Vec<_> = p
+        .events
+        .iter()
+        .filter(|e| e.length >= spec.overlap.0)
+        .collect();
     let revisit = !long_events.is_empty() && rng.random_bool(1.0 / 3.0);
     let (a_win, b_win) = if revisit {
         let event = long_events.choose(rng)?;
@@ -187,7 +204,11 @@ pub fn positive_case(rng: &mut impl Rng, p: &Prepared, source: Source, spec: &Wi
 
 /// Draws and runs one negative pair: A from one sequence, B (any source)
 /// from another, same window lengths and disguise as the positives.
-pub fn negative_case(rng: &mut impl Rng, all: &[Prepared], spec: &WindowSpec) -> Option<NegativeCase> {
+pub fn negative_case(
+    rng: &mut impl Rng,
+    all: &[Prepared],
+    spec: &WindowSpec,
+) -> Option<NegativeCase> {
     let ia = rng.random_range(0..all.len());
     let ib = (ia + rng.random_range(1..all.len())) % all.len();
     let (pa, pb) = (&all[ia], &all[ib]);

@@ -76,7 +76,11 @@ impl Prepared {
     pub fn new(seq: Sequence) -> Self {
         let revisits = revisits::revisits(&seq.gt, REVISIT_RADIUS_M, REVISIT_MIN_FRAMES);
         let events = revisits::events(&revisits, &seq.arc, EVENT_MAX_GAP, EVENT_MIN_M);
-        Prepared { seq, revisits, events }
+        Prepared {
+            seq,
+            revisits,
+            events,
+        }
     }
 }
 
@@ -121,6 +125,16 @@ impl Default for Options {
     }
 }
 
+/// Pipeline settings: `top_k` set, everything else the pipeline's default.
+// The struct update keeps this right as `Config` gains fields.
+#[allow(clippy::needless_update)]
+fn pipeline_config(top_k: usize) -> crate::pipeline::Config {
+    crate::pipeline::Config {
+        top_k,
+        ..Default::default()
+    }
+}
+
 /// Runs the evaluation and returns every case with the summaries.
 pub fn run(opts: &Options) -> Result<Report> {
     let dir = resolve_data_dir(&opts.data)?;
@@ -130,8 +144,15 @@ pub fn run(opts: &Options) -> Result<Report> {
         .collect::<Result<_>>()?;
     let do_merge = matches!(opts.what, What::Merge | What::All);
     let do_loops = matches!(opts.what, What::Loops | What::All);
-    let total = if do_merge { opts.cases + opts.negatives } else { 0 }
-        + if do_loops { 15 * opts.loop_seeds as usize } else { 0 };
+    let total = if do_merge {
+        opts.cases + opts.negatives
+    } else {
+        0
+    } + if do_loops {
+        15 * opts.loop_seeds as usize
+    } else {
+        0
+    };
     let bar = indicatif::ProgressBar::new(total as u64);
     let mut report = Report::new(&dir, opts.seed, &prepared);
     if do_merge {

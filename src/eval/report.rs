@@ -123,15 +123,25 @@ impl Report {
         Report {
             data_dir: dir.display().to_string(),
             seed,
-            gps_alignment: prepared.iter().find_map(|p| p.seq.gps.as_ref().map(|g| g.1.clone())),
-            events: prepared.iter().map(|p| (p.seq.name.clone(), p.events.len())).collect(),
+            gps_alignment: prepared
+                .iter()
+                .find_map(|p| p.seq.gps.as_ref().map(|g| g.1.clone())),
+            events: prepared
+                .iter()
+                .map(|p| (p.seq.name.clone(), p.events.len()))
+                .collect(),
             merge: None,
             loops: None,
         }
     }
 
     /// Summarises the merge cases.
-    pub fn set_merge(&mut self, cases: Vec<MergeCase>, negatives: Vec<NegativeCase>, windows: WindowSpec) {
+    pub fn set_merge(
+        &mut self,
+        cases: Vec<MergeCase>,
+        negatives: Vec<NegativeCase>,
+        windows: WindowSpec,
+    ) {
         let all: Vec<&MergeCase> = cases.iter().collect();
         let mut rows = vec![merge_row("all", &all)];
         for s in [Source::Gt, Source::Mono, Source::Gps] {
@@ -146,7 +156,10 @@ impl Report {
             rows.push(merge_row(format!("sequence {s}"), &g));
         }
         for (name, pick) in [
-            ("time overlap", &(|c: &MergeCase| c.kind == "time") as &dyn Fn(&MergeCase) -> bool),
+            (
+                "time overlap",
+                &(|c: &MergeCase| c.kind == "time") as &dyn Fn(&MergeCase) -> bool,
+            ),
             ("revisit overlap", &|c: &MergeCase| c.kind == "revisit"),
             ("B forward", &|c: &MergeCase| !c.reversed),
             ("B reversed", &|c: &MergeCase| c.reversed),
@@ -177,11 +190,20 @@ impl Report {
     /// Summarises the loop runs per sequence and source, then per source.
     pub fn set_loops(&mut self, runs: Vec<LoopRun>, drift: DriftModel, naive: Naive) {
         let mut rows = Vec::new();
-        let mut keys: Vec<(String, Source)> = runs.iter().map(|r| (r.sequence.clone(), r.source)).collect();
+        let mut keys: Vec<(String, Source)> = runs
+            .iter()
+            .map(|r| (r.sequence.clone(), r.source))
+            .collect();
         keys.dedup();
         let row = |seq: &str, source: &str, pick: &dyn Fn(&LoopRun) -> bool| {
-            let tp: Vec<&LoopRun> = runs.iter().filter(|r| r.method == "turnprint" && pick(r)).collect();
-            let nv: Vec<&LoopRun> = runs.iter().filter(|r| r.method == "naive" && pick(r)).collect();
+            let tp: Vec<&LoopRun> = runs
+                .iter()
+                .filter(|r| r.method == "turnprint" && pick(r))
+                .collect();
+            let nv: Vec<&LoopRun> = runs
+                .iter()
+                .filter(|r| r.method == "naive" && pick(r))
+                .collect();
             LoopRow {
                 sequence: seq.to_string(),
                 source: source.to_string(),
@@ -192,7 +214,9 @@ impl Report {
             }
         };
         for (seq, source) in &keys {
-            rows.push(row(seq, source.name(), &|r| &r.sequence == seq && r.source == *source));
+            rows.push(row(seq, source.name(), &|r| {
+                &r.sequence == seq && r.source == *source
+            }));
         }
         for source in [Source::Gt, Source::Mono, Source::Drift] {
             rows.push(row("all", source.name(), &|r| r.source == source));
@@ -283,7 +307,11 @@ impl Report {
     fn loops_markdown(&self, l: &LoopsReport, s: &mut String) {
         let d = &l.drift;
         let _ = writeln!(s, "## Loops on real paths\n");
-        let events: Vec<String> = self.events.iter().map(|(n, e)| format!("{n}: {e}")).collect();
+        let events: Vec<String> = self
+            .events
+            .iter()
+            .map(|(n, e)| format!("{n}: {e}"))
+            .collect();
         let _ = writeln!(
             s,
             "Revisit: pose within 8 m of a ground-truth pose >= 300 frames earlier; event: run of revisits \

@@ -147,7 +147,10 @@ mod tests {
         // the square); the run lasts to the end of the path.
         assert!((390..=395).contains(&e.first), "{e:?}");
         assert_eq!(e.last, 460);
-        assert!(e.match_first <= 2 && (58..=61).contains(&e.match_last), "{e:?}");
+        assert!(
+            e.match_first <= 2 && (58..=61).contains(&e.match_last),
+            "{e:?}"
+        );
     }
 
     #[test]

@@ -111,8 +111,9 @@ pub fn umeyama(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<Similarity>
     }
     let rotation_m = u * Matrix3::from_diagonal(&signs) * v_t;
     let scale = svd.singular_values.dot(&signs) / var_src;
-    let rotation =
-        UnitQuaternion::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(rotation_m));
+    let rotation = UnitQuaternion::from_rotation_matrix(
+        &nalgebra::Rotation3::from_matrix_unchecked(rotation_m),
+    );
     let translation = mu_dst - scale * (rotation * mu_src);
     Some(Similarity {
         scale,
@@ -168,7 +169,9 @@ mod tests {
     fn umeyama_recovers_a_random_similarity() {
         let mut rng = StdRng::seed_from_u64(9);
         let src: Vec<Vector3<f64>> = (0..50)
-            .map(|_| Vector3::new(gaussian(&mut rng), gaussian(&mut rng), gaussian(&mut rng)) * 30.0)
+            .map(|_| {
+                Vector3::new(gaussian(&mut rng), gaussian(&mut rng), gaussian(&mut rng)) * 30.0
+            })
             .collect();
         for _ in 0..20 {
             let truth = random_similarity(&mut rng, 100.0);

@@ -36,7 +36,12 @@ fn window_at(arc: &[f64], s0: f64, s1: f64) -> Window {
 
 /// A random window of `min_len..max_len` of road (`None` if the drive is
 /// shorter than `min_len`).
-pub fn random_window(rng: &mut impl Rng, arc: &[f64], min_len: f64, max_len: f64) -> Option<Window> {
+pub fn random_window(
+    rng: &mut impl Rng,
+    arc: &[f64],
+    min_len: f64,
+    max_len: f64,
+) -> Option<Window> {
     let total = *arc.last()?;
     if total < min_len {
         return None;
@@ -80,7 +85,12 @@ fn random_sides(rng: &mut impl Rng) -> (bool, bool) {
 /// `spec.overlap.0` of road and extending at least `spec.extra.0 / 2`
 /// beyond A on one or both sides. `None` when the drive's ends leave no
 /// room (the caller draws again).
-pub fn overlapping_window(rng: &mut impl Rng, arc: &[f64], a: Window, spec: &WindowSpec) -> Option<Window> {
+pub fn overlapping_window(
+    rng: &mut impl Rng,
+    arc: &[f64],
+    a: Window,
+    spec: &WindowSpec,
+) -> Option<Window> {
     let total = *arc.last()?;
     let (sa0, sa1) = (arc[a[0]], arc[a[1]]);
     let a_len = sa1 - sa0;
@@ -136,8 +146,18 @@ pub fn revisit_windows(
     }
     let a = window_at(arc, a0, a1);
     let (before, after) = random_sides(rng);
-    let mut extra = |on: bool| if on { rng.random_range(spec.extra.0..=spec.extra.1) } else { 0.0 };
-    let b = window_at(arc, arc[core[0]] - extra(before), arc[core[1]] + extra(after));
+    let mut extra = |on: bool| {
+        if on {
+            rng.random_range(spec.extra.0..=spec.extra.1)
+        } else {
+            0.0
+        }
+    };
+    let b = window_at(
+        arc,
+        arc[core[0]] - extra(before),
+        arc[core[1]] + extra(after),
+    );
     let disjoint = a[1] < b[0] || b[1] < a[0];
     disjoint.then_some((a, b))
 }
@@ -172,7 +192,9 @@ mod tests {
         let mut made = 0;
         for _ in 0..300 {
             let a = random_window(&mut rng, &arc, 400.0, 1500.0).unwrap();
-            let Some(b) = overlapping_window(&mut rng, &arc, a, &spec) else { continue };
+            let Some(b) = overlapping_window(&mut rng, &arc, a, &spec) else {
+                continue;
+            };
             made += 1;
             assert!(shared_length(&arc, a, b) >= 200.0);
             assert!(b[0] < a[0] || b[1] > a[1], "{a:?} {b:?}");
@@ -197,7 +219,8 @@ mod tests {
         };
         let mut rng = StdRng::seed_from_u64(3);
         for _ in 0..100 {
-            let (a, b) = revisit_windows(&mut rng, &arc, &event, &revisits, &WindowSpec::default()).unwrap();
+            let (a, b) =
+                revisit_windows(&mut rng, &arc, &event, &revisits, &WindowSpec::default()).unwrap();
             assert!(a[1] < b[0]);
             assert!(window_length(&arc, a) >= 399.0);
             // The common road: B's frames whose earlier frame lies in A.
