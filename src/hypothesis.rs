@@ -59,3 +59,32 @@ pub struct HypothesisJson {
     pub rmse: f64,
     pub turning_deg: f64,
 }
+
+impl Hypothesis {
+    /// Rotation angle of the similarity (radians).
+    pub fn rotation_angle(&self) -> f64 {
+        ((self.rotation.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+    }
+
+    /// The JSON form of `cli.md`.
+    pub fn to_json(&self) -> HypothesisJson {
+        let r = &self.rotation;
+        HypothesisJson {
+            rank: self.rank,
+            score: self.score,
+            zncc: self.zncc,
+            reversed: self.reversed,
+            a_range: self.a_range,
+            b_range: self.b_range,
+            scale: self.scale,
+            rotation: [
+                [r[(0, 0)], r[(0, 1)], r[(0, 2)]],
+                [r[(1, 0)], r[(1, 1)], r[(1, 2)]],
+                [r[(2, 0)], r[(2, 1)], r[(2, 2)]],
+            ],
+            translation: [self.translation.x, self.translation.y, self.translation.z],
+            rmse: self.rmse,
+            turning_deg: self.turning.to_degrees(),
+        }
+    }
+}

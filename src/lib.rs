@@ -12,14 +12,22 @@
 //! The online detector reuses the batch stages; the verifier sidecar lives
 //! behind the `verifier` feature so the core builds without OpenCV.
 
+pub mod align;
 pub mod error;
+pub mod geometry;
+pub mod matching;
 pub mod trajectory;
 
 pub use error::{Error, Result};
 pub use trajectory::{Pose, Trajectory};
 pub mod hypothesis;
 pub mod pipeline;
+pub mod score;
+pub mod segments;
+pub mod signature;
+pub mod track;
 
 pub use hypothesis::Hypothesis;
+pub use pipeline::{find_loops, match_paths, Config};
 #[cfg(feature = "eval")]
 pub mod eval;

@@ -1,22 +1,177 @@
 //! The batch pipeline: `match`, `loops` and `merge` strung from the stages.
-//! (Work in progress: the stages are being filled in.)
+//!
+//! ```text
+//! prepare (plane, track, signature, segments)   for each path
+//! search  (ZNCC of N = 2..12 segments, pooled by alignment line)
+//! verify  (RANSAC, grow, refit, evidence)        strongest candidates first
+//! score, rank (de-duplicate, top k)
+//! ```
 
+pub mod config;
+pub mod merge;
+pub mod prepare;
+pub mod rank;
+pub mod verify;
+
+pub use config::Config;
+pub use merge::merge;
+pub use prepare::PreparedPath;
+pub use verify::Verified;
+
+use crate::matching::candidates::search;
+use crate::matching::Correlator;
+use crate::score::score;
 use crate::{Hypothesis, Result, Trajectory};
 
-/// Settings of the batch pipeline.
-#[derive(Debug, Clone, Default)]
-pub struct Config {
-    /// How many hypotheses to return.
-    pub top_k: usize,
+/// Where path B overlaps path A, best first (at most `config.top_k`).
+pub fn match_paths(a: &Trajectory, b: &Trajectory, config: &Config) -> Result<Vec<Hypothesis>> {
+    // Each path through plane, track, signature and segments.
+    let pa = PreparedPath::new(a, config)?;
+    let pb = PreparedPath::new(b, config)?;
+    Ok(match_prepared(&pa, &pb, config))
 }
 
-/// Where path B overlaps path A, best first.
-pub fn match_paths(_a: &Trajectory, _b: &Trajectory, _config: &Config) -> Result<Vec<Hypothesis>> {
-    Ok(Vec::new())
+/// [`match_paths`] on prepared paths.
+pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> Vec<Hypothesis> {
+    if pa.signature.len() < 3 || pb.signature.len() < 3 {
+        return Vec::new();
+    }
+    // B's queries against A's whole signature, pooled by alignment line.
+    let mut correlator = Correlator::new(&pa.signature.value, pb.signature.len());
+    let candidates = search(
+        &mut correlator,
+        &pb.signature.value,
+        &pb.bounds,
+        &config.query,
+        |_| true,
+    );
+    // Geometry decides, strongest candidates first.
+    let xy = [pb.points(false), pb.points(true)];
+    let mut hypotheses = Vec::new();
+    for cand in candidates.iter().take(config.max_candidates) {
+        let mirrored = cand.orientation.mirrored;
+        let Some(v) = verify::verify(pa, pb, &xy[mirrored as usize], cand, config, &|_, _| true)
+        else {
+            continue;
+        };
+        let s = score(&v.evidence, &config.score);
+        hypotheses.push(to_hypothesis(pa, pb, &v, s, false));
+    }
+    rank::rank(hypotheses, config.top_k)
 }
 
-/// Places that path A revisits: `a_range` is the later (query) part,
+/// Places that path A revisits. `a_range` is the later (query) part,
 /// `b_range` the earlier (match) part; the similarity maps match onto query.
-pub fn find_loops(_a: &Trajectory, _config: &Config) -> Result<Vec<Hypothesis>> {
-    Ok(Vec::new())
+pub fn find_loops(a: &Trajectory, config: &Config) -> Result<Vec<Hypothesis>> {
+    let pa = PreparedPath::new(a, config)?;
+    Ok(find_loops_prepared(&pa, config))
+}
+
+/// [`find_loops`] on a prepared path.
+pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis> {
+    let sig = &pa.signature;
+    if sig.len() < 3 {
+        return Vec::new();
+    }
+    let margin = (config.loop_exclusion / sig.dk).round() as i64;
+    // A query never matches its own neighbourhood: the aligned target range
+    // must stay clear of the query range by `margin` samples of K.
+    let clear = |c: &crate::matching::Candidate| {
+        let (q0, q1) = (c.query[0] as i64, c.query[1] as i64);
+        let (t0, t1) = {
+            let (x, y) = (c.target_of(c.query[0]), c.target_of(c.query[1]));
+            (x.min(y), x.max(y))
+        };
+        t1 < q0 - margin || t0 > q1 + margin
+    };
+    let mut query = config.query;
+    query.mirror = false;
+    let mut correlator = Correlator::new(&sig.value, sig.len());
+    let candidates = search(&mut correlator, &sig.value, &pa.bounds, &query, clear);
+    let xy = pa.points(false);
+    let mut hypotheses = Vec::new();
+    for cand in candidates.iter().take(config.max_candidates) {
+        // Grown points must stay away from themselves along the path by at
+        // least the seed's own length.
+        let seed_len = sig.s[cand.query[1]] - sig.s[cand.query[0]];
+        let track = &pa.track;
+        let allowed = |g: usize, v: f64| {
+            (track.s[g] - crate::track::Track::interp(&track.s, v)).abs() > seed_len
+        };
+        let Some(v) = verify::verify(pa, pa, &xy, cand, config, &allowed) else {
+            continue;
+        };
+        let mut s = score(&v.evidence, &config.score);
+        let h = to_hypothesis(pa, pa, &v, s, true);
+        if let Some(prior) = &config.drift_prior {
+            let angle = h.rotation_angle();
+            let offset = median_offset(pa, &h);
+            let length = v.overlap.target_length.max(v.overlap.query_length);
+            let between = (pa.track.s[pa.track.grid_of_pose(h.a_range[0]) as usize]
+                - pa.track.s[pa.track.grid_of_pose(h.b_range[1]) as usize])
+                .abs();
+            s *= prior.factor(angle, h.scale, offset, length, between);
+        }
+        hypotheses.push(Hypothesis { score: s, ..h });
+    }
+    rank::rank(hypotheses, config.top_k)
+}
+
+/// Median distance in the map between corresponding poses of a loop.
+fn median_offset(pa: &PreparedPath, h: &Hypothesis) -> f64 {
+    let xy = |pose: usize| pa.track.point_at(pa.track.grid_of_pose(pose));
+    let mut d: Vec<f64> = h
+        .correspondences
+        .iter()
+        .map(|&(a, b)| (xy(a) - xy(b)).norm())
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2]
+}
+
+/// A verified overlap as a hypothesis in 3D. For loops, the later part
+/// becomes A (the query) and the similarity maps the earlier part onto it.
+fn to_hypothesis(
+    pa: &PreparedPath,
+    pb: &PreparedPath,
+    v: &Verified,
+    score: f64,
+    later_is_a: bool,
+) -> Hypothesis {
+    let o = &v.overlap;
+    let mirrored = v.candidate.orientation.mirrored;
+    let mut a_t_b = pa.plane.lift(&pb.plane(mirrored), &o.a_T_b);
+    let mut a_range = [pa.pose_of_grid(o.target[0]), pa.pose_of_grid(o.target[1])];
+    let mut b_range = [pb.pose_of_grid(o.query[0] as f64), pb.pose_of_grid(o.query[1] as f64)];
+    let step = (o.pairs.len() / 50).max(1);
+    let mut correspondences: Vec<(usize, usize)> = o
+        .pairs
+        .iter()
+        .step_by(step)
+        .map(|&(t, q)| (pa.pose_of_grid(t), pb.pose_of_grid(q as f64)))
+        .collect();
+    if later_is_a && b_range[0] > a_range[0] {
+        std::mem::swap(&mut a_range, &mut b_range);
+        a_t_b = a_t_b.inverse();
+        for c in &mut correspondences {
+            *c = (c.1, c.0);
+        }
+    }
+    Hypothesis {
+        rank: 0,
+        score,
+        zncc: v.evidence.zncc,
+        reversed: v.candidate.orientation.reversed,
+        a_range,
+        b_range,
+        scale: a_t_b.scale,
+        rotation: a_t_b.rotation,
+        translation: a_t_b.translation,
+        rmse: o.rmse,
+        turning: v.evidence.turning,
+        correspondences,
+    }
 }

@@ -1,0 +1,9 @@
+//! Alignment: the similarity that maps the query path onto the target, from
+//! a candidate's sample correspondences (RANSAC), then grown along both paths
+//! and refitted robustly.
+
+pub mod grow;
+pub mod ransac;
+
+pub use grow::{grow_and_refit, Overlap};
+pub use ransac::ransac_similarity;

@@ -1,0 +1,146 @@
+//! Similarity transforms (rotation, translation, uniform scale) and their
+//! least-squares estimation from point pairs.
+//!
+//! `a_T_b` maps points from frame b to frame a: `p_a = s R p_b + t`.
+
+use nalgebra::{Matrix3, Rotation2, Vector2, Vector3};
+
+/// A 2D similarity `p_a = s R(angle) p_b + t`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Similarity2 {
+    /// Uniform scale `s > 0`.
+    pub scale: f64,
+    /// Rotation angle in radians.
+    pub angle: f64,
+    /// Translation `t`.
+    pub translation: Vector2<f64>,
+}
+
+impl Similarity2 {
+    /// The identity.
+    pub fn identity() -> Self {
+        Similarity2 {
+            scale: 1.0,
+            angle: 0.0,
+            translation: Vector2::zeros(),
+        }
+    }
+
+    /// Applies the transform to a point of b.
+    pub fn apply(&self, p_b: &Vector2<f64>) -> Vector2<f64> {
+        let (s, c) = self.angle.sin_cos();
+        let r = Vector2::new(c * p_b.x - s * p_b.y, s * p_b.x + c * p_b.y);
+        self.scale * r + self.translation
+    }
+
+    /// The inverse `b_T_a`.
+    pub fn inverse(&self) -> Self {
+        let inv_scale = 1.0 / self.scale;
+        let rot = Rotation2::new(-self.angle);
+        Similarity2 {
+            scale: inv_scale,
+            angle: -self.angle,
+            translation: -(rot * self.translation) * inv_scale,
+        }
+    }
+
+    /// Weighted least-squares similarity `a_T_b` from pairs `(p_a, p_b)`
+    /// (Umeyama in closed form: in 2D the optimal rotation and scale are the
+    /// argument and modulus of `sum w conj(b') a'` over centred points).
+    /// Returns `None` when the b points are all at one place.
+    pub fn fit(pairs: &[(Vector2<f64>, Vector2<f64>)], weights: Option<&[f64]>) -> Option<Self> {
+        let w_of = |i: usize| weights.map_or(1.0, |w| w[i]);
+        let mut w_sum = 0.0;
+        let (mut ca, mut cb) = (Vector2::zeros(), Vector2::zeros());
+        for (i, (a, b)) in pairs.iter().enumerate() {
+            let w = w_of(i);
+            w_sum += w;
+            ca += w * a;
+            cb += w * b;
+        }
+        if w_sum <= 0.0 {
+            return None;
+        }
+        ca /= w_sum;
+        cb /= w_sum;
+        let (mut dot, mut cross, mut var_b) = (0.0, 0.0, 0.0);
+        for (i, (a, b)) in pairs.iter().enumerate() {
+            let w = w_of(i);
+            let (da, db) = (a - ca, b - cb);
+            dot += w * db.dot(&da);
+            cross += w * (db.x * da.y - db.y * da.x);
+            var_b += w * db.norm_squared();
+        }
+        if var_b <= f64::MIN_POSITIVE || !(dot.is_finite() && cross.is_finite()) {
+            return None;
+        }
+        let scale = dot.hypot(cross) / var_b;
+        if !(scale > 0.0 && scale.is_finite()) {
+            return None;
+        }
+        let angle = cross.atan2(dot);
+        let mut t = Similarity2 {
+            scale,
+            angle,
+            translation: Vector2::zeros(),
+        };
+        t.translation = ca - t.apply(&cb);
+        Some(t)
+    }
+
+    /// Exact similarity taking `b0 -> a0` and `b1 -> a1`.
+    pub fn from_two(a0: &Vector2<f64>, a1: &Vector2<f64>, b0: &Vector2<f64>, b1: &Vector2<f64>) -> Option<Self> {
+        Self::fit(&[(*a0, *b0), (*a1, *b1)], None)
+    }
+}
+
+/// A 3D similarity `p_a = s R p_b + t` with `R` a proper rotation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Similarity3 {
+    /// Uniform scale `s > 0`.
+    pub scale: f64,
+    /// Proper rotation `R`.
+    pub rotation: Matrix3<f64>,
+    /// Translation `t`.
+    pub translation: Vector3<f64>,
+}
+
+impl Similarity3 {
+    /// The identity.
+    pub fn identity() -> Self {
+        Similarity3 {
+            scale: 1.0,
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+        }
+    }
+
+    /// Applies the transform to a point of b.
+    pub fn apply(&self, p_b: &Vector3<f64>) -> Vector3<f64> {
+        self.scale * (self.rotation * p_b) + self.translation
+    }
+
+    /// The inverse `b_T_a`.
+    pub fn inverse(&self) -> Self {
+        let rt = self.rotation.transpose();
+        Similarity3 {
+            scale: 1.0 / self.scale,
+            rotation: rt,
+            translation: -(rt * self.translation) / self.scale,
+        }
+    }
+
+    /// Composition `self * other` (apply `other` first).
+    pub fn compose(&self, other: &Similarity3) -> Self {
+        Similarity3 {
+            scale: self.scale * other.scale,
+            rotation: self.rotation * other.rotation,
+            translation: self.scale * (self.rotation * other.translation) + self.translation,
+        }
+    }
+
+    /// Rotation angle in radians (the geodesic distance to the identity).
+    pub fn angle(&self) -> f64 {
+        ((self.rotation.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+    }
+}

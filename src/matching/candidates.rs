@@ -1,0 +1,184 @@
+//! Part-to-part matching: queries of N consecutive segments of one path are
+//! correlated against the whole signature of the other, and the peaks vote
+//! for alignments.
+//!
+//! A true overlap aligns every query inside it along one line of the
+//! (query sample, target sample) plane: `a = b + c` for the same direction of
+//! travel, `a = c - b` for the opposite one. Peaks are therefore pooled by
+//! that line, so a long overlap seen by many short queries becomes one strong
+//! candidate instead of many weak ones.
+
+use std::collections::HashMap;
+
+use super::Correlator;
+
+/// How the query path runs along the target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Orientation {
+    /// Opposite direction of travel.
+    pub reversed: bool,
+    /// Seen from the other side of its plane (curvature negated).
+    pub mirrored: bool,
+}
+
+/// A proposed alignment of query samples onto target samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// Direction and side.
+    pub orientation: Orientation,
+    /// Inclusive range of query signature samples.
+    pub query: [usize; 2],
+    /// The alignment line: target sample = `line + b` (forward) or
+    /// `line - b` (reversed) for query sample `b`.
+    pub line: i64,
+    /// Best ZNCC among the queries that voted for this line.
+    pub zncc: f64,
+    /// Pooled evidence: Σ zncc² · length over the voting queries.
+    pub strength: f64,
+}
+
+impl Candidate {
+    /// Target sample aligned with query sample `b` (may fall outside).
+    pub fn target_of(&self, b: usize) -> i64 {
+        if self.orientation.reversed {
+            self.line - b as i64
+        } else {
+            self.line + b as i64
+        }
+    }
+}
+
+/// Settings of the part-to-part search.
+#[derive(Debug, Clone, Copy)]
+pub struct QueryConfig {
+    /// Fewest consecutive segments in a query (the paper's N1).
+    pub min_segments: usize,
+    /// Most consecutive segments in a query (the paper's N2).
+    pub max_segments: usize,
+    /// Peaks kept per query and orientation.
+    pub peaks_per_query: usize,
+    /// Lowest ZNCC kept.
+    pub min_zncc: f64,
+    /// Also try the query seen from the other side of its plane.
+    pub mirror: bool,
+    /// Alignment lines closer than this many samples are pooled.
+    pub line_tolerance: usize,
+}
+
+impl Default for QueryConfig {
+    fn default() -> Self {
+        QueryConfig {
+            min_segments: 2,
+            max_segments: 12,
+            peaks_per_query: 3,
+            min_zncc: 0.5,
+            mirror: true,
+            line_tolerance: 4,
+        }
+    }
+}
+
+/// Runs every query of `min..=max` consecutive segments of `query_sig`
+/// (boundaries `bounds`) against the correlator's signature and pools the
+/// peaks by alignment line. `keep` rejects trivial alignments (self-matches).
+pub fn search(
+    target: &mut Correlator,
+    query_sig: &[f64],
+    bounds: &[usize],
+    config: &QueryConfig,
+    keep: impl Fn(&Candidate) -> bool,
+) -> Vec<Candidate> {
+    let mut pooled: HashMap<(Orientation, i64), Candidate> = HashMap::new();
+    let n_seg = bounds.len().saturating_sub(1);
+    for first in 0..n_seg {
+        for n in config.min_segments..=config.max_segments {
+            if first + n > n_seg {
+                break;
+            }
+            let (q0, q1) = (bounds[first], bounds[first + n]);
+            if q1 - q0 + 1 > target.len() || q1 <= q0 + 1 {
+                continue;
+            }
+            let scores = target.scores(&query_sig[q0..=q1]);
+            let len = (q1 - q0 + 1) as f64;
+            for (reversed, s) in [(false, &scores.forward), (true, &scores.reversed)] {
+                for sign in [1.0, -1.0] {
+                    if sign < 0.0 && !config.mirror {
+                        continue;
+                    }
+                    for (d, z) in peaks(s, sign, config, (q1 - q0).div_ceil(2)) {
+                        let orientation = Orientation {
+                            reversed,
+                            mirrored: sign < 0.0,
+                        };
+                        let line = if reversed {
+                            (d + (q1 - q0)) as i64 + q0 as i64
+                        } else {
+                            d as i64 - q0 as i64
+                        };
+                        let cand = Candidate {
+                            orientation,
+                            query: [q0, q1],
+                            line,
+                            zncc: z,
+                            strength: z * z * len,
+                        };
+                        if !keep(&cand) {
+                            continue;
+                        }
+                        let key = (orientation, line.div_euclid(config.line_tolerance as i64));
+                        pool(&mut pooled, key, cand);
+                    }
+                }
+            }
+        }
+    }
+    let mut out: Vec<Candidate> = pooled.into_values().collect();
+    out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
+    out
+}
+
+/// Merges a vote into its line's pool entry.
+fn pool(pooled: &mut HashMap<(Orientation, i64), Candidate>, key: (Orientation, i64), cand: Candidate) {
+    match pooled.get_mut(&key) {
+        None => {
+            pooled.insert(key, cand);
+        }
+        Some(p) => {
+            p.strength += cand.strength;
+            p.query = [p.query[0].min(cand.query[0]), p.query[1].max(cand.query[1])];
+            if cand.zncc > p.zncc {
+                p.zncc = cand.zncc;
+                p.line = cand.line;
+            }
+        }
+    }
+}
+
+/// The best `peaks_per_query` local maxima of `sign * s` above the threshold,
+/// at least `spacing` apart: `(offset, score)`.
+fn peaks(s: &[f64], sign: f64, config: &QueryConfig, spacing: usize) -> Vec<(usize, f64)> {
+    let mut found: Vec<(usize, f64)> = Vec::new();
+    for d in 0..s.len() {
+        let v = sign * s[d];
+        if v < config.min_zncc {
+            continue;
+        }
+        let left = d == 0 || sign * s[d - 1] < v;
+        let right = d + 1 == s.len() || sign * s[d + 1] <= v;
+        if left && right {
+            found.push((d, v));
+        }
+    }
+    found.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut kept: Vec<(usize, f64)> = Vec::with_capacity(config.peaks_per_query);
+    for (d, v) in found {
+        if kept.iter().all(|&(k, _)| k.abs_diff(d) >= spacing.max(1)) {
+            kept.push((d, v));
+            if kept.len() == config.peaks_per_query {
+                break;
+            }
+        }
+    }
+    kept
+}

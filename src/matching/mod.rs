@@ -1,0 +1,8 @@
+//! Whole-to-part and part-to-part matching of signatures by zero-mean
+//! normalised cross-correlation (ZNCC), both directions of travel.
+
+pub mod candidates;
+pub mod zncc;
+
+pub use candidates::{Candidate, Orientation};
+pub use zncc::{Correlator, ZnccScores};

@@ -1,0 +1,193 @@
+//! ZNCC of a short query against every offset of a long signature.
+//!
+//! `zncc(d) = Σ_j (q_j - q̄)(a_{d+j} - ā_d) / (L σ_q σ_a(d))` for forward
+//! travel. Travelling the query the other way reverses it and flips the sign
+//! of curvature, `q'_j = -q_{L-1-j}`, which turns the correlation into a
+//! convolution. Both come from one FFT of the query and one inverse FFT:
+//! since both results are real, `IFFT(A Q̄ + i A Q)` carries the correlation
+//! in its real part and the convolution in its imaginary part. Window means
+//! and deviations of `a` come from prefix sums. Mirroring (the path seen
+//! from the other side of its plane) negates every score.
+
+use std::sync::Arc;
+
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftPlanner};
+
+/// Below this fraction of the signature's variance a window is flat: no score.
+const FLAT_FRACTION: f64 = 1e-4;
+
+/// Scores of one query at every offset `d` in `0..=n-L`.
+#[derive(Debug, Clone, Default)]
+pub struct ZnccScores {
+    /// Same direction of travel.
+    pub forward: Vec<f64>,
+    /// Opposite direction of travel (query reversed, curvature negated).
+    pub reversed: Vec<f64>,
+}
+
+/// A long signature prepared for many queries: its spectrum and prefix sums.
+pub struct Correlator {
+    a: Vec<f64>,
+    prefix: Vec<f64>,
+    prefix_sq: Vec<f64>,
+    flat: f64,
+    fft_len: usize,
+    spectrum: Vec<Complex<f64>>,
+    fft: Arc<dyn Fft<f64>>,
+    ifft: Arc<dyn Fft<f64>>,
+    scratch: Vec<Complex<f64>>,
+    buf: Vec<Complex<f64>>,
+}
+
+impl Correlator {
+    /// Prepares `a` for queries up to `max_query` samples long.
+    pub fn new(a: &[f64], max_query: usize) -> Correlator {
+        let n = a.len();
+        let fft_len = (n + max_query).max(2).next_power_of_two();
+        let mut planner = FftPlanner::new();
+        let fft = planner.plan_fft_forward(fft_len);
+        let ifft = planner.plan_fft_inverse(fft_len);
+        let mut spectrum: Vec<Complex<f64>> = a.iter().map(|&x| Complex::new(x, 0.0)).collect();
+        spectrum.resize(fft_len, Complex::new(0.0, 0.0));
+        let scratch_len = fft
+            .get_inplace_scratch_len()
+            .max(ifft.get_inplace_scratch_len());
+        let mut scratch = vec![Complex::new(0.0, 0.0); scratch_len];
+        fft.process_with_scratch(&mut spectrum, &mut scratch);
+        let mut prefix = vec![0.0; n + 1];
+        let mut prefix_sq = vec![0.0; n + 1];
+        for i in 0..n {
+            prefix[i + 1] = prefix[i] + a[i];
+            prefix_sq[i + 1] = prefix_sq[i] + a[i] * a[i];
+        }
+        let mean = if n > 0 { prefix[n] / n as f64 } else { 0.0 };
+        let var = if n > 0 {
+            (prefix_sq[n] / n as f64 - mean * mean).max(0.0)
+        } else {
+            0.0
+        };
+        Correlator {
+            a: a.to_vec(),
+            prefix,
+            prefix_sq,
+            flat: FLAT_FRACTION * var,
+            fft_len,
+            spectrum,
+            fft,
+            ifft,
+            scratch,
+            buf: Vec::new(),
+        }
+    }
+
+    /// Length of the prepared signature.
+    pub fn len(&self) -> usize {
+        self.a.len()
+    }
+
+    /// True when the prepared signature is empty.
+    pub fn is_empty(&self) -> bool {
+        self.a.is_empty()
+    }
+
+    /// The prepared signature.
+    pub fn signal(&self) -> &[f64] {
+        &self.a
+    }
+
+    /// ZNCC of `q` at every offset, by FFT. Falls back to [`zncc_direct`]
+    /// when `q` is longer than the correlator was prepared for.
+    pub fn scores(&mut self, q: &[f64]) -> ZnccScores {
+        let (n, l) = (self.a.len(), q.len());
+        if l < 2 || l > n {
+            return ZnccScores::default();
+        }
+        if n + l > self.fft_len {
+            return zncc_direct(&self.a, q);
+        }
+        let Some((qz, q_norm)) = centred(q) else {
+            return ZnccScores::default();
+        };
+        self.buf.clear();
+        self.buf.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
+        self.buf.resize(self.fft_len, Complex::new(0.0, 0.0));
+        self.fft.process_with_scratch(&mut self.buf, &mut self.scratch);
+        let i = Complex::new(0.0, 1.0);
+        for (b, a) in self.buf.iter_mut().zip(&self.spectrum) {
+            *b = a * b.conj() + i * (a * *b);
+        }
+        self.ifft.process_with_scratch(&mut self.buf, &mut self.scratch);
+        let norm = 1.0 / self.fft_len as f64;
+        let count = n - l + 1;
+        let mut out = ZnccScores {
+            forward: Vec::with_capacity(count),
+            reversed: Vec::with_capacity(count),
+        };
+        for d in 0..count {
+            let denom = self.window_norm(d, l) * q_norm;
+            if denom <= 0.0 {
+                out.forward.push(0.0);
+                out.reversed.push(0.0);
+                continue;
+            }
+            let corr = self.buf[d].re * norm;
+            let conv = self.buf[d + l - 1].im * norm;
+            out.forward.push((corr / denom).clamp(-1.0, 1.0));
+            out.reversed.push((-conv / denom).clamp(-1.0, 1.0));
+        }
+        out
+    }
+
+    /// `sqrt(Σ (a - ā)^2)` over the window `d..d+l`, 0 when flat.
+    fn window_norm(&self, d: usize, l: usize) -> f64 {
+        let sum = self.prefix[d + l] - self.prefix[d];
+        let sq = self.prefix_sq[d + l] - self.prefix_sq[d];
+        let var = sq / l as f64 - (sum / l as f64).powi(2);
+        if var <= self.flat {
+            0.0
+        } else {
+            (var * l as f64).sqrt()
+        }
+    }
+}
+
+/// `q - q̄` and its norm; `None` when `q` is constant.
+fn centred(q: &[f64]) -> Option<(Vec<f64>, f64)> {
+    let mean = q.iter().sum::<f64>() / q.len() as f64;
+    let qz: Vec<f64> = q.iter().map(|x| x - mean).collect();
+    let norm = qz.iter().map(|x| x * x).sum::<f64>().sqrt();
+    (norm > 0.0).then_some((qz, norm))
+}
+
+/// ZNCC at every offset computed directly, O(n L): the reference the FFT
+/// path is tested and benchmarked against.
+pub fn zncc_direct(a: &[f64], q: &[f64]) -> ZnccScores {
+    let (n, l) = (a.len(), q.len());
+    if l < 2 || l > n {
+        return ZnccScores::default();
+    }
+    let Some((qz, q_norm)) = centred(q) else {
+        return ZnccScores::default();
+    };
+    let total_mean = a.iter().sum::<f64>() / n as f64;
+    let total_var = a.iter().map(|x| (x - total_mean).powi(2)).sum::<f64>() / n as f64;
+    let flat = FLAT_FRACTION * total_var;
+    let mut out = ZnccScores::default();
+    for d in 0..=n - l {
+        let w = &a[d..d + l];
+        let mean = w.iter().sum::<f64>() / l as f64;
+        let var = w.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / l as f64;
+        if var <= flat {
+            out.forward.push(0.0);
+            out.reversed.push(0.0);
+            continue;
+        }
+        let denom = (var * l as f64).sqrt() * q_norm;
+        let fwd: f64 = (0..l).map(|j| qz[j] * w[j]).sum();
+        let rev: f64 = (0..l).map(|j| -qz[l - 1 - j] * w[j]).sum();
+        out.forward.push((fwd / denom).clamp(-1.0, 1.0));
+        out.reversed.push((rev / denom).clamp(-1.0, 1.0));
+    }
+    out
+}

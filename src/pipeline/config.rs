@@ -1,0 +1,79 @@
+//! Settings of the whole pipeline, grouped by stage. Every tolerance is in
+//! radians, ratios or fractions of a matched length: none is in metres.
+
+use crate::align::grow::GrowConfig;
+use crate::matching::candidates::QueryConfig;
+use crate::score::{DriftPrior, ScoreConfig};
+use crate::segments::SegmentConfig;
+use crate::signature::SignatureConfig;
+
+/// Settings of `match`, `loops` and the online detector.
+#[derive(Debug, Clone)]
+pub struct Config {
+    // --- signature: K grid step 2°, heading dead band 4°.
+    /// Signature settings.
+    pub signature: SignatureConfig,
+    // --- segmentation: boundaries are extrema of ln(ds/dK) within ±40° of K,
+    // standing out by a factor 2.
+    /// Segmentation settings.
+    pub segments: SegmentConfig,
+    // --- matching: N = 2..12 segments, 3 peaks per query, ZNCC ≥ 0.5.
+    /// Part-to-part search settings.
+    pub query: QueryConfig,
+    // --- alignment: 2-point RANSAC (threshold 4 % of the matched length),
+    // then grow/refit at 3 % of the matched length.
+    /// RANSAC inlier threshold as a fraction of the matched target length.
+    pub ransac_threshold: f64,
+    /// RANSAC iterations per candidate.
+    pub ransac_iterations: usize,
+    /// Grow/refit settings.
+    pub grow: GrowConfig,
+    /// Candidates verified geometrically (the strongest first).
+    pub max_candidates: usize,
+    // --- scoring and ranking.
+    /// Score settings.
+    pub score: ScoreConfig,
+    /// Within-map drift prior for loops (`None`: no prior, as for merging).
+    pub drift_prior: Option<DriftPrior>,
+    /// Loops: parts closer than this much turning (radians of K) are the
+    /// same place's neighbourhood, never a revisit.
+    pub loop_exclusion: f64,
+    /// Hypotheses returned.
+    pub top_k: usize,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            signature: SignatureConfig::default(),
+            segments: SegmentConfig::default(),
+            query: QueryConfig::default(),
+            ransac_threshold: 0.04,
+            ransac_iterations: 64,
+            grow: GrowConfig::default(),
+            max_candidates: 60,
+            score: ScoreConfig::default(),
+            drift_prior: None,
+            loop_exclusion: std::f64::consts::FRAC_PI_2,
+            top_k: 5,
+        }
+    }
+}
+
+impl Config {
+    /// Defaults for `match` / `merge`: no prior, mirrored paths searched.
+    pub fn for_matching() -> Self {
+        Config::default()
+    }
+
+    /// Defaults for `loops`: one map, so no mirror and the drift prior on.
+    pub fn for_loops() -> Self {
+        let mut c = Config {
+            drift_prior: Some(DriftPrior::default()),
+            top_k: 10,
+            ..Config::default()
+        };
+        c.query.mirror = false;
+        c
+    }
+}

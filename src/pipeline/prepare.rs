@@ -1,0 +1,101 @@
+//! One path through the stages up to its segments: plane, track, signature,
+//! boundaries, and the polyline index used by alignment.
+
+use nalgebra::Vector2;
+
+use super::Config;
+use crate::geometry::{Plane, Polyline2};
+use crate::segments::boundaries;
+use crate::signature::Signature;
+use crate::track::Track;
+use crate::{Error, Result, Trajectory};
+
+/// Fewest poses the method can work with.
+pub const MIN_POSES: usize = 4;
+
+/// A path ready for matching.
+pub struct PreparedPath {
+    /// Best-fit plane (3D <-> 2D).
+    pub plane: Plane,
+    /// Smoothed track on a uniform grid.
+    pub track: Track,
+    /// Curvature on the uniform K grid.
+    pub signature: Signature,
+    /// Segment boundaries (signature samples).
+    pub bounds: Vec<usize>,
+    /// The track as a polyline for nearest-point queries.
+    pub polyline: Polyline2,
+    /// Number of poses in the input.
+    pub poses: usize,
+}
+
+impl PreparedPath {
+    /// Runs plane fit, track, signature and segmentation.
+    pub fn new(trajectory: &Trajectory, config: &Config) -> Result<PreparedPath> {
+        let name = &trajectory.source;
+        let n = trajectory.len();
+        if n < MIN_POSES {
+            return Err(Error::input(
+                name,
+                format!("{n} poses; the method needs at least {MIN_POSES}"),
+            ));
+        }
+        if let Some(i) = trajectory
+            .poses
+            .iter()
+            .position(|p| !p.position.iter().all(|v| v.is_finite()))
+        {
+            return Err(Error::input(name, format!("pose {i} has a non-finite position")));
+        }
+        let positions = trajectory.positions();
+        let plane = Plane::fit(&positions);
+        let points: Vec<Vector2<f64>> = positions.iter().map(|p| plane.to_2d(p)).collect();
+        let track = Track::build(&points).ok_or_else(|| {
+            Error::input(name, "the path does not move (fewer than 3 distinct positions)")
+        })?;
+        let signature = Signature::build(&track, &config.signature);
+        let bounds = boundaries(&signature, &config.segments);
+        let polyline = Polyline2::new(&track.xy);
+        Ok(PreparedPath {
+            plane,
+            track,
+            signature,
+            bounds,
+            polyline,
+            poses: n,
+        })
+    }
+
+    /// The track's points, mirrored (`y -> -y`) when asked: the path seen
+    /// from the other side of its plane.
+    pub fn points(&self, mirrored: bool) -> Vec<Vector2<f64>> {
+        if mirrored {
+            self.track.xy.iter().map(|p| Vector2::new(p.x, -p.y)).collect()
+        } else {
+            self.track.xy.clone()
+        }
+    }
+
+    /// The plane matching [`PreparedPath::points`].
+    pub fn plane(&self, mirrored: bool) -> crate::geometry::Plane {
+        if mirrored {
+            self.plane.mirrored()
+        } else {
+            self.plane
+        }
+    }
+
+    /// Nearest pose index of a fractional grid index.
+    pub fn pose_of_grid(&self, grid: f64) -> usize {
+        let p = Track::interp(&self.track.pose, grid).round();
+        (p.max(0.0) as usize).min(self.poses - 1)
+    }
+
+    /// Turning (radians of K) between two grid indices.
+    pub fn turning_between(&self, g0: f64, g1: f64) -> f64 {
+        let g = &self.signature.grid;
+        let i0 = g.partition_point(|&x| x < g0.min(g1));
+        let i1 = g.partition_point(|&x| x <= g0.max(g1));
+        i1.saturating_sub(i0) as f64 * self.signature.dk
+    }
+}

@@ -1,0 +1,102 @@
+//! The score of a hypothesis, in [0, 1]: how likely the overlap is true.
+//!
+//! Each factor is scale-free and saturates:
+//! - ZNCC of the signatures (shape agreement, scale removed),
+//! - total turning inside the overlap (how many distinct turns agree: in a
+//!   city grid a single corner matches everywhere),
+//! - the geometric residual as a fraction of the matched length,
+//! - the arc-length consistency of the two matched stretches (straights carry
+//!   no `K`: their lengths must agree through the common scale),
+//! - for loops within one map, a drift-aware prior that the similarity is
+//!   near identity.
+
+/// Settings of the score.
+#[derive(Debug, Clone, Copy)]
+pub struct ScoreConfig {
+    /// Turning (radians) at which the turning factor reaches 1 - 1/e.
+    pub turning_scale: f64,
+    /// Residual (fraction of matched length) at which the residual factor is ½.
+    pub residual_scale: f64,
+    /// |ln(length ratio)| at which the length factor is 1/e.
+    pub length_log_tolerance: f64,
+}
+
+impl Default for ScoreConfig {
+    fn default() -> Self {
+        ScoreConfig {
+            turning_scale: std::f64::consts::FRAC_PI_2,
+            residual_scale: 0.015,
+            length_log_tolerance: 0.15,
+        }
+    }
+}
+
+/// The evidence behind one hypothesis.
+#[derive(Debug, Clone, Copy)]
+pub struct Evidence {
+    /// ZNCC of the seed match.
+    pub zncc: f64,
+    /// Turning inside the overlap (radians).
+    pub turning: f64,
+    /// RMS residual over matched length.
+    pub relative_rmse: f64,
+    /// Matched target length over matched query length times scale.
+    pub length_ratio: f64,
+}
+
+/// Combines the evidence into a score in [0, 1].
+pub fn score(e: &Evidence, config: &ScoreConfig) -> f64 {
+    let zncc = e.zncc.clamp(0.0, 1.0).sqrt();
+    let turning = 1.0 - (-e.turning / config.turning_scale).exp();
+    let residual = 1.0 / (1.0 + (e.relative_rmse / config.residual_scale).powi(2));
+    let length = if e.length_ratio > 0.0 && e.length_ratio.is_finite() {
+        (-e.length_ratio.ln().abs() / config.length_log_tolerance).exp()
+    } else {
+        0.0
+    };
+    (zncc * turning * residual * length).clamp(0.0, 1.0)
+}
+
+/// Drift model of one map: how far a true revisit's similarity may be from
+/// identity, growing with the path length travelled between the two parts.
+#[derive(Debug, Clone, Copy)]
+pub struct DriftPrior {
+    /// Heading drift (radians) per square root of (distance / matched length).
+    pub heading: f64,
+    /// Heading offset allowed at no distance (radians).
+    pub heading_floor: f64,
+    /// Log-scale drift per square root of (distance / matched length).
+    pub scale: f64,
+    /// Position drift as a fraction of the distance travelled in between.
+    pub position: f64,
+    /// Score factor left when the prior is violated (robust to strong drift).
+    pub floor: f64,
+}
+
+impl Default for DriftPrior {
+    fn default() -> Self {
+        DriftPrior {
+            heading: 2f64.to_radians(),
+            heading_floor: 4f64.to_radians(),
+            scale: 0.01,
+            position: 0.03,
+            floor: 0.4,
+        }
+    }
+}
+
+impl DriftPrior {
+    /// Factor in `[floor, 1]` for a revisit with rotation `angle`, scale
+    /// `scale`, median map displacement `offset`, matched length `length`,
+    /// after travelling `distance` between the parts (same units).
+    pub fn factor(&self, angle: f64, scale: f64, offset: f64, length: f64, distance: f64) -> f64 {
+        let ratio = (distance / length.max(f64::MIN_POSITIVE)).max(0.0).sqrt();
+        let sigma_angle = self.heading_floor + self.heading * ratio;
+        let sigma_scale = 0.01 + self.scale * ratio;
+        let sigma_offset = 0.05 * length + self.position * distance;
+        let m = (angle / sigma_angle).powi(2)
+            + (scale.ln() / sigma_scale).powi(2)
+            + (offset / sigma_offset).powi(2);
+        self.floor + (1.0 - self.floor) * (-0.5 * m).exp()
+    }
+}

@@ -1,0 +1,156 @@
+//! The track: a smooth planar curve through the poses, with arc length,
+//! heading and signed curvature on a uniform grid.
+//!
+//! Stages: [`chord`] (drop repeated and stationary poses, chord-length
+//! parameter), [`smooth`] (kernel smoothing whose bandwidth is chosen from
+//! the data by generalised cross-validation), then differential geometry on
+//! the smoothed grid.
+
+pub mod chord;
+pub mod smooth;
+
+use nalgebra::Vector2;
+
+pub use chord::ChordParam;
+pub use smooth::Smoother;
+
+/// Smoothed curve sampled uniformly in the chord parameter `u`.
+#[derive(Debug, Clone)]
+pub struct Track {
+    /// Smoothed positions.
+    pub xy: Vec<Vector2<f64>>,
+    /// Arc length of the smoothed curve at each sample.
+    pub s: Vec<f64>,
+    /// Unwrapped heading (radians).
+    pub heading: Vec<f64>,
+    /// Signed curvature `d heading / ds` (1 / path units).
+    pub curvature: Vec<f64>,
+    /// Fractional pose index of each sample.
+    pub pose: Vec<f64>,
+    /// Grid step in `u`.
+    pub step: f64,
+    /// Chord parameter of each original pose.
+    pub pose_u: Vec<f64>,
+    /// The smoothing bandwidth chosen (units of `u`).
+    pub bandwidth: f64,
+}
+
+impl Track {
+    /// Builds the track of 2D points (one per pose). `None` when the path
+    /// does not move (fewer than three distinct positions).
+    pub fn build(points: &[Vector2<f64>]) -> Option<Track> {
+        let chord = ChordParam::new(points)?;
+        let smoother = Smoother::choose(&chord);
+        Some(Self::from_smoother(&chord, &smoother))
+    }
+
+    /// Samples the smoother on a grid of half the typical pose spacing and
+    /// differentiates it.
+    pub fn from_smoother(chord: &ChordParam, smoother: &Smoother) -> Track {
+        let step = chord.typical_step / 2.0;
+        let total = chord.total();
+        let m = ((total / step).ceil() as usize).max(2) + 1;
+        let step = total / (m - 1) as f64;
+        let us: Vec<f64> = (0..m).map(|i| i as f64 * step).collect();
+        let xy = smoother.eval_grid(chord, &us);
+        let pose = us.iter().map(|&u| chord.pose_at(u)).collect();
+        let (s, heading, curvature) = differentiate(&xy);
+        Track {
+            xy,
+            s,
+            heading,
+            curvature,
+            pose,
+            step,
+            pose_u: chord.pose_u.clone(),
+            bandwidth: smoother.bandwidth,
+        }
+    }
+
+    /// Number of grid samples.
+    pub fn len(&self) -> usize {
+        self.xy.len()
+    }
+
+    /// True when the track has no samples.
+    pub fn is_empty(&self) -> bool {
+        self.xy.is_empty()
+    }
+
+    /// Total arc length.
+    pub fn length(&self) -> f64 {
+        self.s.last().copied().unwrap_or(0.0)
+    }
+
+    /// Fractional grid index of the sample nearest to a pose.
+    pub fn grid_of_pose(&self, pose: usize) -> f64 {
+        self.pose_u[pose.min(self.pose_u.len() - 1)] / self.step
+    }
+
+    /// Linear interpolation of a per-sample quantity at a fractional index.
+    pub fn interp(values: &[f64], at: f64) -> f64 {
+        let n = values.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let at = at.clamp(0.0, (n - 1) as f64);
+        let i = (at.floor() as usize).min(n.saturating_sub(2));
+        let f = at - i as f64;
+        if i + 1 < n {
+            values[i] * (1.0 - f) + values[i + 1] * f
+        } else {
+            values[i]
+        }
+    }
+
+    /// Smoothed position at a fractional grid index.
+    pub fn point_at(&self, at: f64) -> Vector2<f64> {
+        let n = self.xy.len();
+        let at = at.clamp(0.0, (n - 1) as f64);
+        let i = (at.floor() as usize).min(n.saturating_sub(2));
+        let f = at - i as f64;
+        if i + 1 < n {
+            self.xy[i] * (1.0 - f) + self.xy[i + 1] * f
+        } else {
+            self.xy[i]
+        }
+    }
+}
+
+/// Arc length, unwrapped heading and curvature of a densely sampled curve
+/// by central differences: `kappa = d(theta)/ds`.
+pub fn differentiate(xy: &[Vector2<f64>]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let m = xy.len();
+    let mut s = vec![0.0; m];
+    for i in 1..m {
+        s[i] = s[i - 1] + (xy[i] - xy[i - 1]).norm();
+    }
+    let mut heading = vec![0.0; m];
+    for i in 0..m {
+        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(m - 1));
+        let d = xy[hi] - xy[lo];
+        heading[i] = d.y.atan2(d.x);
+    }
+    unwrap(&mut heading);
+    let mut curvature = vec![0.0; m];
+    for i in 0..m {
+        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(m - 1));
+        let ds = s[hi] - s[lo];
+        curvature[i] = if ds > 0.0 {
+            (heading[hi] - heading[lo]) / ds
+        } else {
+            0.0
+        };
+    }
+    (s, heading, curvature)
+}
+
+/// Removes 2π jumps so consecutive angles differ by less than π.
+pub fn unwrap(angles: &mut [f64]) {
+    use std::f64::consts::{PI, TAU};
+    for i in 1..angles.len() {
+        let mut d = angles[i] - angles[i - 1];
+        d -= TAU * ((d + PI) / TAU).floor();
+        angles[i] = angles[i - 1] + d;
+    }
+}
