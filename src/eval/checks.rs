@@ -85,14 +85,33 @@ pub fn merge_verdict(
     b_true: &[Vector3<f64>],
     truth: &Overlap,
 ) -> MergeVerdict {
+    merge_verdict_of(
+        |p| h.transform(p),
+        h.a_range,
+        h.b_range,
+        b_input,
+        b_true,
+        truth,
+    )
+}
+
+/// [`merge_verdict`] for any claimed map of B into A and claimed ranges.
+pub fn merge_verdict_of(
+    a_from_b: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+    a_range: [usize; 2],
+    b_range: [usize; 2],
+    b_input: &[Vector3<f64>],
+    b_true: &[Vector3<f64>],
+    truth: &Overlap,
+) -> MergeVerdict {
     let errors: Vec<f64> = truth
         .b
         .iter()
-        .map(|&k| (h.transform(&b_input[k]) - b_true[k]).norm())
+        .map(|&k| (a_from_b(&b_input[k]) - b_true[k]).norm())
         .collect();
     let median_error = median(&errors);
     let tolerance = (0.02 * truth.length).max(3.0);
-    let ranges_hit = range_hits(h.a_range, &truth.a) && range_hits(h.b_range, &truth.b);
+    let ranges_hit = range_hits(a_range, &truth.a) && range_hits(b_range, &truth.b);
     MergeVerdict {
         median_error,
         tolerance,
@@ -159,32 +178,9 @@ pub fn loop_correct(claim: &LoopClaim, truth: &[Vector3<f64>], radius: f64) -> b
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Matrix3;
 
     fn line(n: usize, y: f64) -> Vec<Vector3<f64>> {
         (0..n).map(|i| Vector3::new(i as f64, y, 0.0)).collect()
-    }
-
-    fn hypothesis(
-        scale: f64,
-        translation: Vector3<f64>,
-        a: [usize; 2],
-        b: [usize; 2],
-    ) -> Hypothesis {
-        Hypothesis {
-            rank: 1,
-            score: 0.5,
-            zncc: 0.5,
-            reversed: false,
-            a_range: a,
-            b_range: b,
-            scale,
-            rotation: Matrix3::identity(),
-            translation,
-            rmse: 0.0,
-            turning: 0.0,
-            correspondences: Vec::new(),
-        }
     }
 
     #[test]
@@ -214,17 +210,17 @@ mod tests {
             .map(|p| p * 0.1 + Vector3::new(5.0, 0.0, 0.0))
             .collect();
         let o = overlap(&a, &b_true, 8.0);
-        let good = hypothesis(10.0, Vector3::new(-50.0, 0.0, 0.0), [300, 499], [0, 199]);
-        assert!(merge_verdict(&good, &b_input, &b_true, &o).correct);
-        // 6 m off (tolerance is max(2 % of 207 m, 3 m) = 4.1 m).
-        let off = hypothesis(10.0, Vector3::new(-44.0, 0.0, 0.0), [300, 499], [0, 199]);
-        let v = merge_verdict(&off, &b_input, &b_true, &o);
+        let map = |dx: f64| move |p: &Vector3<f64>| 10.0 * p + Vector3::new(dx, 0.0, 0.0);
+        let good = merge_verdict_of(map(-50.0), [300, 499], [0, 199], &b_input, &b_true, &o);
+        assert!(good.correct && good.median_error < 1e-9);
+        // 6 m off (tolerance is max(2 % of 207 m, 3 m) = 4.14 m).
+        let v = merge_verdict_of(map(-44.0), [300, 499], [0, 199], &b_input, &b_true, &o);
         assert!(
             !v.correct && (v.median_error - 6.0).abs() < 1e-9 && (v.tolerance - 4.14).abs() < 1e-9
         );
         // Right similarity, but B's range misses the overlap.
-        let miss = hypothesis(10.0, Vector3::new(-50.0, 0.0, 0.0), [300, 499], [400, 599]);
-        assert!(!merge_verdict(&miss, &b_input, &b_true, &o).correct);
+        let miss = merge_verdict_of(map(-50.0), [300, 499], [400, 599], &b_input, &b_true, &o);
+        assert!(!miss.correct && miss.median_error < 1e-9);
     }
 
     #[test]

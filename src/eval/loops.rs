@@ -14,7 +14,7 @@ use super::checks::{loop_correct, LoopClaim};
 use super::drift::DriftModel;
 use super::similarity::random_similarity;
 use super::{Prepared, Source};
-use crate::pipeline::find_loops;
+use crate::pipeline::{find_loops, Config};
 use crate::Trajectory;
 
 /// A loop is correct when its query poses lie within this (median, m) of
@@ -105,7 +105,8 @@ pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [Loop
     let positions: Vec<_> = positions.iter().map(|q| sim.apply(q)).collect();
     let traj = Trajectory::from_positions(format!("{}-{}", p.seq.name, source.name()), &positions);
 
-    let config = super::pipeline_config(TOP_K);
+    let mut config = Config::for_loops();
+    config.top_k = TOP_K;
     let start = Instant::now();
     let found = find_loops(&traj, &config);
     let tp_seconds = start.elapsed().as_secs_f64();

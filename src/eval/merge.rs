@@ -8,11 +8,11 @@ use nalgebra::Vector3;
 use rand::{seq::IndexedRandom, Rng};
 use serde::Serialize;
 
-use super::checks::{merge_verdict, overlap};
+use super::checks::{merge_verdict, merge_verdict_of, overlap};
 use super::similarity::{random_similarity, rotation_error_deg, scale_error_pct, umeyama};
 use super::windows::{overlapping_window, random_window, revisit_windows, Window, WindowSpec};
 use super::{Prepared, Source};
-use crate::pipeline::match_paths;
+use crate::pipeline::{match_paths, Config};
 use crate::{Hypothesis, Trajectory};
 
 /// Radius (m) within which ground-truth positions count as the same road.
@@ -45,6 +45,10 @@ pub struct MergeCase {
     pub rot_err_deg: Option<f64>,
     /// Scale error (%) of a correct rank-1.
     pub scale_err_pct: Option<f64>,
+    /// Harness check: the best-fit (Umeyama) similarity of B's common-road
+    /// poses onto their true positions passes the test (it can fail only
+    /// when the source itself bends more than the tolerance, e.g. mono drift).
+    pub oracle_correct: bool,
     /// Wall time of `match_paths`.
     pub seconds: f64,
     /// `match_paths` failed (counted as no hypothesis).
@@ -119,7 +123,8 @@ fn run_match(
     b: &Trajectory,
     top_k: usize,
 ) -> (Vec<Hypothesis>, f64, Option<String>) {
-    let config = super::pipeline_config(top_k);
+    let mut config = Config::for_matching();
+    config.top_k = top_k;
     let start = Instant::now();
     let out = match_paths(a, b, &config);
     let seconds = start.elapsed().as_secs_f64();
@@ -172,15 +177,21 @@ pub fn positive_case(
         .map(|h| merge_verdict(h, &b.input, &b.truth, &truth))
         .collect();
     let rank1_correct = verdicts.first().is_some_and(|v| v.correct);
+    let src: Vec<_> = truth.b.iter().map(|&k| b.input[k]).collect();
+    let dst: Vec<_> = truth.b.iter().map(|&k| b.truth[k]).collect();
+    let best = umeyama(&src, &dst);
+    let oracle_correct = best.as_ref().is_some_and(|o| {
+        let (a_all, b_all) = (
+            [truth.a[0], truth.a[truth.a.len() - 1]],
+            [truth.b[0], truth.b[truth.b.len() - 1]],
+        );
+        merge_verdict_of(|p| o.apply(p), a_all, b_all, &b.input, &b.truth, &truth).correct
+    });
     let (mut rot_err_deg, mut scale_err_pct) = (None, None);
-    if rank1_correct {
-        let src: Vec<_> = truth.b.iter().map(|&k| b.input[k]).collect();
-        let dst: Vec<_> = truth.b.iter().map(|&k| b.truth[k]).collect();
-        if let Some(best) = umeyama(&src, &dst) {
-            let r_true = best.rotation.to_rotation_matrix().into_inner();
-            rot_err_deg = Some(rotation_error_deg(&hyps[0].rotation, &r_true));
-            scale_err_pct = Some(scale_error_pct(hyps[0].scale, best.scale));
-        }
+    if let (true, Some(best)) = (rank1_correct, &best) {
+        let r_true = best.rotation.to_rotation_matrix().into_inner();
+        rot_err_deg = Some(rotation_error_deg(&hyps[0].rotation, &r_true));
+        scale_err_pct = Some(scale_error_pct(hyps[0].scale, best.scale));
     }
     Some(MergeCase {
         sequence: p.seq.name.clone(),
@@ -197,6 +208,7 @@ pub fn positive_case(
         rank1_error_m: verdicts.first().map(|v| v.median_error),
         rot_err_deg,
         scale_err_pct,
+        oracle_correct,
         seconds,
         error,
     })

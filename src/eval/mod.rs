@@ -125,16 +125,6 @@ impl Default for Options {
     }
 }
 
-/// Pipeline settings: `top_k` set, everything else the pipeline's default.
-// The struct update keeps this right as `Config` gains fields.
-#[allow(clippy::needless_update)]
-fn pipeline_config(top_k: usize) -> crate::pipeline::Config {
-    crate::pipeline::Config {
-        top_k,
-        ..Default::default()
-    }
-}
-
 /// Runs the evaluation and returns every case with the summaries.
 pub fn run(opts: &Options) -> Result<Report> {
     let dir = resolve_data_dir(&opts.data)?;

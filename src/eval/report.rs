@@ -296,6 +296,12 @@ impl Report {
         );
         let _ = writeln!(
             s,
+            "Harness check: the best-fit similarity of B's common road onto its true positions passes the test on {} of {} cases.\n",
+            m.cases.iter().filter(|c| c.oracle_correct).count(),
+            m.cases.len()
+        );
+        let _ = writeln!(
+            s,
             "Time per match: median {:.1} ms, mean {:.1} ms, max {:.1} ms. `match_paths` errors: {}.\n",
             1e3 * m.median_match_s,
             1e3 * m.mean_match_s,
