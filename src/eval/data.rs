@@ -300,6 +300,44 @@ mod tests {
     }
 
     #[test]
+    fn gps_offset_and_similarity_are_recovered() {
+        // A winding 200 s drive at 10 Hz; GPS at 1 Hz on another clock
+        // (t_gps = t + 1003.37) and in another frame, starting 6.6 s late.
+        let times: Vec<f64> = (0..2000).map(|k| k as f64 * 0.1).collect();
+        let at = |t: f64| Vector3::new(300.0 * (t / 30.0).sin(), 0.0, 300.0 * (t / 17.0).sin());
+        let gt: Vec<_> = times.iter().map(|t| at(*t)).collect();
+        let seq = Sequence {
+            name: "synthetic".into(),
+            arc: arc_lengths(&gt),
+            gt,
+            times,
+            mono: Sourced::default(),
+            gps: None,
+        };
+        let frame = super::super::similarity::Similarity {
+            scale: 1.0,
+            rotation: nalgebra::UnitQuaternion::from_euler_angles(1.2, -0.3, 0.5),
+            translation: Vector3::new(10.0, -20.0, 5.0),
+        };
+        let rows: Vec<_> = (0..200)
+            .map(|j| {
+                let t_gps = 1010.0 + j as f64;
+                (t_gps, frame.apply(&at(t_gps - 1003.37)))
+            })
+            .collect();
+        let (gps, fit) = align_gps(&seq, &rows).unwrap();
+        assert!((fit.offset_s - 1003.37).abs() < 0.006, "{fit:?}");
+        assert!(
+            (fit.scale - 1.0).abs() < 1e-3 && fit.rmse_m < 0.1,
+            "{fit:?}"
+        );
+        // Rows after the drive's end (t > 199.9 s) are dropped.
+        assert_eq!(gps.positions.len(), fit.rows_used);
+        assert_eq!(fit.rows_used, 194);
+        assert!((gps.frames[0] - 66.3).abs() < 0.1, "{}", gps.frames[0]);
+    }
+
+    #[test]
     fn interpolate_between_samples() {
         let p = [Vector3::zeros(), Vector3::new(2.0, 0.0, 0.0)];
         assert_eq!(interpolate(&p, 0.25), Vector3::new(0.5, 0.0, 0.0));

@@ -101,9 +101,8 @@ fn keep(pos: &[Vector3<f64>], frames: &[f64], lo: f64, hi: f64) -> (Vec<Vector3<
         .unzip()
 }
 
-/// Reverses B half of the time and puts it under a random similarity.
-fn disguise(rng: &mut impl Rng, mut b: Cut) -> (Cut, bool, f64) {
-    let reversed = rng.random_bool(0.5);
+/// Reverses B's pose order (when asked) and puts B under a random similarity.
+fn disguise(rng: &mut impl Rng, mut b: Cut, reversed: bool) -> (Cut, bool, f64) {
     if reversed {
         b.input.reverse();
         b.truth.reverse();
@@ -138,11 +137,13 @@ fn run_match(
     }
 }
 
-/// Draws and runs one positive case (`None`: the draw did not fit, retry).
+/// Draws and runs one positive case, B reversed or not (`None`: the draw
+/// did not fit, retry).
 pub fn positive_case(
     rng: &mut impl Rng,
     p: &Prepared,
     source: Source,
+    reversed: bool,
     spec: &WindowSpec,
 ) -> Option<MergeCase> {
     let arc = &p.seq.arc;
@@ -164,7 +165,7 @@ pub fn positive_case(
     if b_cut.input.len() < MIN_POSES {
         return None;
     }
-    let (b, reversed, scale) = disguise(rng, b_cut);
+    let (b, reversed, scale) = disguise(rng, b_cut, reversed);
     let truth = overlap(&a_cut.truth, &b.truth, SAME_ROAD_M);
     if truth.length < 0.75 * spec.overlap.0 || truth.b.len() < 3 {
         return None;
@@ -219,6 +220,7 @@ pub fn positive_case(
 pub fn negative_case(
     rng: &mut impl Rng,
     all: &[Prepared],
+    reversed: bool,
     spec: &WindowSpec,
 ) -> Option<NegativeCase> {
     let ia = rng.random_range(0..all.len());
@@ -236,7 +238,7 @@ pub fn negative_case(
     if b_cut.input.len() < MIN_POSES {
         return None;
     }
-    let (b, reversed, _) = disguise(rng, b_cut);
+    let (b, reversed, _) = disguise(rng, b_cut, reversed);
     let a_traj = Trajectory::from_positions(format!("{}-gt", pa.seq.name), &a_cut.input);
     let b_traj = Trajectory::from_positions(format!("{}-{}", pb.seq.name, source.name()), &b.input);
     let (hyps, seconds, _) = run_match(&a_traj, &b_traj, 5);

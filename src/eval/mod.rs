@@ -149,20 +149,24 @@ pub fn run(opts: &Options) -> Result<Report> {
         let spec = windows::WindowSpec::default();
         let mut rng = StdRng::seed_from_u64(opts.seed);
         let with_gps: Vec<&Prepared> = prepared.iter().filter(|p| p.seq.gps.is_some()).collect();
+        let sources: &[Source] = if with_gps.is_empty() {
+            &[Source::Gt, Source::Mono]
+        } else {
+            &[Source::Gt, Source::Mono, Source::Gps]
+        };
         let mut cases = Vec::new();
         let mut draws = 0;
         while cases.len() < opts.cases && draws < 50 * opts.cases.max(1) {
             draws += 1;
-            let source = [Source::Gt, Source::Mono, Source::Gps][cases.len() % 3];
-            let p = if source == Source::Gps {
-                match with_gps.first() {
-                    Some(p) => *p,
-                    None => continue,
-                }
-            } else {
-                &prepared[rng.random_range(0..prepared.len())]
+            // Sources take turns (GPS only where there is GPS: KITTI 00);
+            // every other round of turns has B reversed.
+            let source = sources[cases.len() % sources.len()];
+            let reversed = (cases.len() / sources.len()) % 2 == 1;
+            let p = match (source, with_gps.first()) {
+                (Source::Gps, Some(p)) => *p,
+                _ => &prepared[rng.random_range(0..prepared.len())],
             };
-            if let Some(c) = merge::positive_case(&mut rng, p, source, &spec) {
+            if let Some(c) = merge::positive_case(&mut rng, p, source, reversed, &spec) {
                 cases.push(c);
                 bar.inc(1);
             }
@@ -171,7 +175,9 @@ pub fn run(opts: &Options) -> Result<Report> {
         draws = 0;
         while negatives.len() < opts.negatives && draws < 50 * opts.negatives.max(1) {
             draws += 1;
-            if let Some(n) = merge::negative_case(&mut rng, &prepared, &spec) {
+            if let Some(n) =
+                merge::negative_case(&mut rng, &prepared, negatives.len() % 2 == 1, &spec)
+            {
                 negatives.push(n);
                 bar.inc(1);
             }
