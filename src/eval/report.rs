@@ -362,7 +362,9 @@ impl Report {
         }
         let _ = writeln!(
             s,
-            "\nTargets: rank-1 correct on >= 90 % of runs, >= 90 % of events covered. Precision is `-` when nothing was returned.\n"
+            "\nTargets: rank-1 correct on >= 90 % of runs, >= 90 % of events covered. Precision is `-` when nothing was returned. \
+             `find_loops` errors: {}.\n",
+            l.runs.iter().filter(|r| r.error.is_some()).count()
         );
     }
 }
