@@ -129,10 +129,8 @@ pub fn grow_and_refit(
         }
         // Robust refit: Huber weights on the distance.
         let huber = tol / 3.0;
-        let pairs: Vec<(Vector2<f64>, Vector2<f64>)> = matched
-            .iter()
-            .map(|(g, _, q, _)| (*q, query_xy[*g]))
-            .collect();
+        let pairs: Vec<(Vector2<f64>, Vector2<f64>)> =
+            matched.iter().map(|(g, _, q, _)| (*q, query_xy[*g])).collect();
         let weights: Vec<f64> = matched
             .iter()
             .map(|(_, _, _, d)| if *d <= huber { 1.0 } else { huber / d })
@@ -147,11 +145,9 @@ pub fn grow_and_refit(
             .map(|(g, _, _, _)| target_poly.project(&sim.apply(&query_xy[*g])).distance)
             .collect();
         let rmse = (residuals.iter().map(|d| d * d).sum::<f64>() / residuals.len() as f64).sqrt();
-        let (tmin, tmax) = matched
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {
-                (a.min(m.1), b.max(m.1))
-            });
+        let (tmin, tmax) = matched.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {
+            (a.min(m.1), b.max(m.1))
+        });
         let target_length = Track::interp(&target.s, tmax) - Track::interp(&target.s, tmin);
         result = Some(Overlap {
             a_T_b: sim,

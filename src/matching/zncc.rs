@@ -112,14 +112,12 @@ impl Correlator {
         self.buf.clear();
         self.buf.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
         self.buf.resize(self.fft_len, Complex::new(0.0, 0.0));
-        self.fft
-            .process_with_scratch(&mut self.buf, &mut self.scratch);
+        self.fft.process_with_scratch(&mut self.buf, &mut self.scratch);
         let i = Complex::new(0.0, 1.0);
         for (b, a) in self.buf.iter_mut().zip(&self.spectrum) {
             *b = a * b.conj() + i * (a * *b);
         }
-        self.ifft
-            .process_with_scratch(&mut self.buf, &mut self.scratch);
+        self.ifft.process_with_scratch(&mut self.buf, &mut self.scratch);
         let norm = 1.0 / self.fft_len as f64;
         let count = n - l + 1;
         let mut out = ZnccScores {

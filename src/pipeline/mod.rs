@@ -145,10 +145,7 @@ fn to_hypothesis(
     let mirrored = v.candidate.orientation.mirrored;
     let mut a_t_b = pa.plane.lift(&pb.plane(mirrored), &o.a_T_b);
     let mut a_range = [pa.pose_of_grid(o.target[0]), pa.pose_of_grid(o.target[1])];
-    let mut b_range = [
-        pb.pose_of_grid(o.query[0] as f64),
-        pb.pose_of_grid(o.query[1] as f64),
-    ];
+    let mut b_range = [pb.pose_of_grid(o.query[0] as f64), pb.pose_of_grid(o.query[1] as f64)];
     let step = (o.pairs.len() / 50).max(1);
     let mut correspondences: Vec<(usize, usize)> = o
         .pairs
