@@ -63,7 +63,9 @@ pub struct HypothesisJson {
 impl Hypothesis {
     /// Rotation angle of the similarity (radians).
     pub fn rotation_angle(&self) -> f64 {
-        ((self.rotation.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+        ((self.rotation.trace() - 1.0) / 2.0)
+            .clamp(-1.0, 1.0)
+            .acos()
     }
 
     /// The JSON form of `cli.md`.

@@ -57,8 +57,30 @@ pub fn score(e: &Evidence, config: &ScoreConfig) -> f64 {
     (zncc * turning * residual * length).clamp(0.0, 1.0)
 }
 
+/// Score of a loop within one map: the geometric fit, times the better of
+/// shape evidence and the drift prior, times the prior's square root. A
+/// straight revisit of a consistent map (no turns, prior near 1) scores
+/// high; a city-grid look-alike (good shape, far from identity) scores low;
+/// a drifted true loop keeps its shape evidence, discounted by the prior.
+pub fn loop_score(e: &Evidence, prior: f64, config: &ScoreConfig) -> f64 {
+    let shape = score(e, config);
+    let geometry = score(
+        &Evidence {
+            zncc: 1.0,
+            turning: f64::INFINITY,
+            ..*e
+        },
+        config,
+    );
+    (geometry * (shape / geometry.max(f64::MIN_POSITIVE)).max(prior) * prior.sqrt()).clamp(0.0, 1.0)
+}
+
 /// Drift model of one map: how far a true revisit's similarity may be from
 /// identity, growing with the path length travelled between the two parts.
+///
+/// Each term is heavy-tailed, `1 / (1 + (x/σ)²)`, so strong drift lowers a
+/// true loop's score without erasing it, while σ grows with
+/// `sqrt(distance / matched length)` like a random walk.
 #[derive(Debug, Clone, Copy)]
 pub struct DriftPrior {
     /// Heading drift (radians) per square root of (distance / matched length).
@@ -67,36 +89,34 @@ pub struct DriftPrior {
     pub heading_floor: f64,
     /// Log-scale drift per square root of (distance / matched length).
     pub scale: f64,
+    /// Log-scale offset allowed at no distance.
+    pub scale_floor: f64,
     /// Position drift as a fraction of the distance travelled in between.
     pub position: f64,
-    /// Score factor left when the prior is violated (robust to strong drift).
-    pub floor: f64,
 }
 
 impl Default for DriftPrior {
     fn default() -> Self {
         DriftPrior {
-            heading: 2f64.to_radians(),
+            heading: 4f64.to_radians(),
             heading_floor: 4f64.to_radians(),
-            scale: 0.01,
-            position: 0.03,
-            floor: 0.4,
+            scale: 0.03,
+            scale_floor: 0.02,
+            position: 0.05,
         }
     }
 }
 
 impl DriftPrior {
-    /// Factor in `[floor, 1]` for a revisit with rotation `angle`, scale
+    /// Factor in `(0, 1]` for a revisit with rotation `angle`, scale
     /// `scale`, median map displacement `offset`, matched length `length`,
     /// after travelling `distance` between the parts (same units).
     pub fn factor(&self, angle: f64, scale: f64, offset: f64, length: f64, distance: f64) -> f64 {
         let ratio = (distance / length.max(f64::MIN_POSITIVE)).max(0.0).sqrt();
         let sigma_angle = self.heading_floor + self.heading * ratio;
-        let sigma_scale = 0.01 + self.scale * ratio;
-        let sigma_offset = 0.05 * length + self.position * distance;
-        let m = (angle / sigma_angle).powi(2)
-            + (scale.ln() / sigma_scale).powi(2)
-            + (offset / sigma_offset).powi(2);
-        self.floor + (1.0 - self.floor) * (-0.5 * m).exp()
+        let sigma_scale = self.scale_floor + self.scale * ratio;
+        let sigma_offset = 0.1 * length + self.position * distance;
+        let term = |x: f64, sigma: f64| 1.0 / (1.0 + (x / sigma).powi(2));
+        term(angle, sigma_angle) * term(scale.ln(), sigma_scale) * term(offset, sigma_offset)
     }
 }

@@ -51,11 +51,19 @@ pub struct Overlap {
     pub target_length: f64,
     /// Matched length along the query times the scale (target units).
     pub query_length: f64,
+    /// The target runs backwards along the query.
+    pub reversed: bool,
 }
 
 /// Grows the seed `[g0, g1]` of `query` (2D points `query_xy`, the query
 /// track's own points, mirrored if need be) on `target`.
 /// `allowed(query_grid, target_grid)` rejects trivial self-matches.
+///
+/// Each round: project the current range onto the target, keep the points
+/// that agree on one alignment line (target arc = c ± s · query arc), grow
+/// outwards while the mapped query stays within tolerance of the target
+/// *near where the line predicts* (so the growth follows the road instead of
+/// jumping to a crossing one), then refit with Huber weights.
 #[allow(non_snake_case)]
 #[allow(clippy::too_many_arguments)]
 pub fn grow_and_refit(
@@ -73,6 +81,7 @@ pub fn grow_and_refit(
         return None;
     }
     let stride = ((seed[1] - seed[0]) / config.points_per_seed).max(1);
+    let arc_of = |v: f64| Track::interp(&target.s, v);
     let mut sim = a_T_b;
     let mut range = [seed[0], seed[1].min(n - 1)];
     let mut result = None;
@@ -80,84 +89,146 @@ pub fn grow_and_refit(
         let length = sim.scale * (query.s[range[1]] - query.s[range[0]]);
         let tol = config.tolerance * length;
         if !(tol > 0.0 && tol.is_finite()) {
-            return None;
+            return result;
         }
-        let probe = |g: usize| -> Option<(f64, Vector2<f64>, f64)> {
+        let project = |g: usize, predicted: Option<(f64, f64)>| -> Option<Match> {
             let p = sim.apply(&query_xy[g]);
-            let proj = target_poly.project(&p);
-            (proj.distance < tol && allowed(g, proj.vertex))
-                .then(|| (proj.vertex, target.point_at(proj.vertex), proj.distance))
+            let proj = target_poly.project_within(&p, tol, |v| {
+                allowed(g, v) && predicted.is_none_or(|(arc, w)| (arc_of(v) - arc).abs() <= w)
+            })?;
+            Some(Match {
+                query: g,
+                vertex: proj.vertex,
+                arc: proj.arc,
+                distance: proj.distance,
+            })
         };
-        // Matched points inside the current range.
-        let mut matched: Vec<(usize, f64, Vector2<f64>, f64)> = Vec::new();
+        // Points of the current range that agree on one alignment line.
+        let mut inside = Vec::new();
         let mut g = range[0];
         while g <= range[1] {
-            if let Some((v, q, d)) = probe(g) {
-                matched.push((g, v, q, d));
-            }
+            inside.extend(project(g, None));
             g += stride;
         }
-        // Grow outwards on both sides.
-        let mut lo = range[0];
-        let mut misses = 0;
-        while lo >= stride && misses < config.max_misses {
-            lo -= stride;
-            match probe(lo) {
-                Some((v, q, d)) => {
-                    matched.push((lo, v, q, d));
-                    misses = 0;
-                    range[0] = lo;
+        let Some((sign, mut matched)) = consistent_line(inside, query, sim.scale, 2.0 * tol) else {
+            return result;
+        };
+        // Grow outwards on both sides, following the line.
+        for dir in [-1i64, 1] {
+            let edge = if dir < 0 {
+                matched.iter().min_by_key(|m| m.query)
+            } else {
+                matched.iter().max_by_key(|m| m.query)
+            };
+            let Some(mut last) = edge.copied() else {
+                break;
+            };
+            let mut misses = 0;
+            let mut g = last.query as i64;
+            while misses < config.max_misses {
+                g += dir * stride as i64;
+                if g < 0 || g >= n as i64 {
+                    break;
                 }
-                None => misses += 1,
-            }
-        }
-        let mut hi = range[1];
-        misses = 0;
-        while hi + stride < n && misses < config.max_misses {
-            hi += stride;
-            match probe(hi) {
-                Some((v, q, d)) => {
-                    matched.push((hi, v, q, d));
-                    misses = 0;
-                    range[1] = hi;
+                let ds = sim.scale * (query.s[g as usize] - query.s[last.query]);
+                let predicted = last.arc + sign * ds;
+                let window = tol + 0.2 * ds.abs();
+                match project(g as usize, Some((predicted, window))) {
+                    Some(m) => {
+                        matched.push(m);
+                        last = m;
+                        misses = 0;
+                    }
+                    None => misses += 1,
                 }
-                None => misses += 1,
             }
         }
         if matched.len() < 6 {
             return result;
         }
+        matched.sort_by_key(|m| m.query);
+        range = [matched[0].query, matched[matched.len() - 1].query];
         // Robust refit: Huber weights on the distance.
         let huber = tol / 3.0;
-        let pairs: Vec<(Vector2<f64>, Vector2<f64>)> =
-            matched.iter().map(|(g, _, q, _)| (*q, query_xy[*g])).collect();
+        let pairs: Vec<(Vector2<f64>, Vector2<f64>)> = matched
+            .iter()
+            .map(|m| (target.point_at(m.vertex), query_xy[m.query]))
+            .collect();
         let weights: Vec<f64> = matched
             .iter()
-            .map(|(_, _, _, d)| if *d <= huber { 1.0 } else { huber / d })
+            .map(|m| {
+                if m.distance <= huber {
+                    1.0
+                } else {
+                    huber / m.distance
+                }
+            })
             .collect();
         let Some(refit) = Similarity2::fit(&pairs, Some(&weights)) else {
             return result;
         };
         sim = refit;
-        matched.sort_by_key(|m| m.0);
-        let residuals: Vec<f64> = matched
+        let residuals: Vec<f64> = pairs
             .iter()
-            .map(|(g, _, _, _)| target_poly.project(&sim.apply(&query_xy[*g])).distance)
+            .map(|(a, b)| (sim.apply(b) - a).norm())
             .collect();
         let rmse = (residuals.iter().map(|d| d * d).sum::<f64>() / residuals.len() as f64).sqrt();
-        let (tmin, tmax) = matched.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {
-            (a.min(m.1), b.max(m.1))
-        });
-        let target_length = Track::interp(&target.s, tmax) - Track::interp(&target.s, tmin);
+        let (tmin, tmax) = matched
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {
+                (a.min(m.vertex), b.max(m.vertex))
+            });
         result = Some(Overlap {
             a_T_b: sim,
             query: range,
             target: [tmin, tmax],
-            pairs: matched.iter().map(|(g, v, _, _)| (*v, *g)).collect(),
+            pairs: matched.iter().map(|m| (m.vertex, m.query)).collect(),
             rmse,
-            target_length,
+            target_length: arc_of(tmax) - arc_of(tmin),
             query_length: sim.scale * (query.s[range[1]] - query.s[range[0]]),
+            reversed: sign < 0.0,
         });
     }
     result
+}
+
+/// One query grid sample matched to a point of the target.
+#[derive(Debug, Clone, Copy)]
+struct Match {
+    query: usize,
+    vertex: f64,
+    arc: f64,
+    distance: f64,
+}
+
+/// The matches that agree on one line `target arc = c + sign · s · query arc`
+/// (within `width`), for the sign that keeps more of them.
+fn consistent_line(
+    matches: Vec<Match>,
+    query: &Track,
+    scale: f64,
+    width: f64,
+) -> Option<(f64, Vec<Match>)> {
+    if matches.len() < 3 {
+        return None;
+    }
+    let mut best: Option<(f64, Vec<Match>)> = None;
+    for sign in [1.0, -1.0] {
+        let offset = |m: &Match| m.arc - sign * scale * query.s[m.query];
+        let mut c: Vec<f64> = matches.iter().map(offset).collect();
+        c.sort_by(f64::total_cmp);
+        let median = c[c.len() / 2];
+        let kept: Vec<Match> = matches
+            .iter()
+            .filter(|m| {
+                (offset(m) - median).abs()
+                    <= width.max(0.1 * scale * (query.s[m.query] - query.s[matches[0].query]).abs())
+            })
+            .copied()
+            .collect();
+        if best.as_ref().is_none_or(|(_, b)| kept.len() > b.len()) {
+            best = Some((sign, kept));
+        }
+    }
+    best
 }

@@ -3,6 +3,7 @@
 
 use glam::DVec2;
 use nalgebra::Vector2;
+use parry2d_f64::bounding_volume::Aabb;
 use parry2d_f64::query::PointQueryWithLocation;
 use parry2d_f64::shape::{Polyline, SegmentPointLocation};
 
@@ -58,6 +59,48 @@ impl Polyline2 {
             arc: self.arc[i0] + v * (self.arc[i1] - self.arc[i0]),
             vertex: i0 as f64 + v * (i1 as f64 - i0 as f64),
         }
+    }
+
+    /// Nearest point to `p` within `max_dist` among the segments whose
+    /// nearest point passes `allowed(fractional vertex index)`: a path
+    /// matched against itself must not find itself.
+    pub fn project_within(
+        &self,
+        p: &Vector2<f64>,
+        max_dist: f64,
+        allowed: impl Fn(f64) -> bool,
+    ) -> Option<Projection> {
+        let q = DVec2::new(p.x, p.y);
+        let r = DVec2::splat(max_dist);
+        let aabb = Aabb::new(q - r, q + r);
+        let vertices = self.shape.vertices();
+        let mut best: Option<Projection> = None;
+        for seg in self.shape.bvh().intersect_aabb(&aabb) {
+            let [i0, i1] = self.shape.indices()[seg as usize];
+            let (a, b) = (vertices[i0 as usize], vertices[i1 as usize]);
+            let ab = b - a;
+            let len2 = ab.length_squared();
+            let t = if len2 > 0.0 {
+                ((q - a).dot(ab) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let distance = (a + ab * t - q).length();
+            if distance > max_dist || best.is_some_and(|b| b.distance <= distance) {
+                continue;
+            }
+            let vertex = i0 as f64 + t * (i1 as f64 - i0 as f64);
+            if !allowed(vertex) {
+                continue;
+            }
+            let (a0, a1) = (self.arc[i0 as usize], self.arc[i1 as usize]);
+            best = Some(Projection {
+                distance,
+                arc: a0 + t * (a1 - a0),
+                vertex,
+            });
+        }
+        best
     }
 
     /// Total length.

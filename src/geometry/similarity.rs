@@ -89,7 +89,12 @@ impl Similarity2 {
     }
 
     /// Exact similarity taking `b0 -> a0` and `b1 -> a1`.
-    pub fn from_two(a0: &Vector2<f64>, a1: &Vector2<f64>, b0: &Vector2<f64>, b1: &Vector2<f64>) -> Option<Self> {
+    pub fn from_two(
+        a0: &Vector2<f64>,
+        a1: &Vector2<f64>,
+        b0: &Vector2<f64>,
+        b1: &Vector2<f64>,
+    ) -> Option<Self> {
         Self::fit(&[(*a0, *b0), (*a1, *b1)], None)
     }
 }
@@ -141,6 +146,8 @@ impl Similarity3 {
 
     /// Rotation angle in radians (the geodesic distance to the identity).
     pub fn angle(&self) -> f64 {
-        ((self.rotation.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+        ((self.rotation.trace() - 1.0) / 2.0)
+            .clamp(-1.0, 1.0)
+            .acos()
     }
 }

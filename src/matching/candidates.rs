@@ -139,7 +139,11 @@ pub fn search(
 }
 
 /// Merges a vote into its line's pool entry.
-fn pool(pooled: &mut HashMap<(Orientation, i64), Candidate>, key: (Orientation, i64), cand: Candidate) {
+fn pool(
+    pooled: &mut HashMap<(Orientation, i64), Candidate>,
+    key: (Orientation, i64),
+    cand: Candidate,
+) {
     match pooled.get_mut(&key) {
         None => {
             pooled.insert(key, cand);

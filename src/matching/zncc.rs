@@ -112,12 +112,14 @@ impl Correlator {
         self.buf.clear();
         self.buf.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
         self.buf.resize(self.fft_len, Complex::new(0.0, 0.0));
-        self.fft.process_with_scratch(&mut self.buf, &mut self.scratch);
+        self.fft
+            .process_with_scratch(&mut self.buf, &mut self.scratch);
         let i = Complex::new(0.0, 1.0);
         for (b, a) in self.buf.iter_mut().zip(&self.spectrum) {
             *b = a * b.conj() + i * (a * *b);
         }
-        self.ifft.process_with_scratch(&mut self.buf, &mut self.scratch);
+        self.ifft
+            .process_with_scratch(&mut self.buf, &mut self.scratch);
         let norm = 1.0 / self.fft_len as f64;
         let count = n - l + 1;
         let mut out = ZnccScores {
@@ -190,4 +192,27 @@ pub fn zncc_direct(a: &[f64], q: &[f64]) -> ZnccScores {
         out.reversed.push((rev / denom).clamp(-1.0, 1.0));
     }
     out
+}
+
+/// ZNCC of two equally long vectors (0 when either is constant).
+pub fn zncc_pair(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    if n < 2 {
+        return 0.0;
+    }
+    let (ma, mb) = (
+        a[..n].iter().sum::<f64>() / n as f64,
+        b[..n].iter().sum::<f64>() / n as f64,
+    );
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for i in 0..n {
+        let (x, y) = (a[i] - ma, b[i] - mb);
+        ab += x * y;
+        aa += x * x;
+        bb += y * y;
+    }
+    if aa <= 0.0 || bb <= 0.0 {
+        return 0.0;
+    }
+    (ab / (aa * bb).sqrt()).clamp(-1.0, 1.0)
 }

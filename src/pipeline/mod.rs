@@ -10,6 +10,7 @@
 pub mod config;
 pub mod merge;
 pub mod prepare;
+pub mod proximity;
 pub mod rank;
 pub mod verify;
 
@@ -18,9 +19,11 @@ pub use merge::merge;
 pub use prepare::PreparedPath;
 pub use verify::Verified;
 
+use crate::geometry::Similarity2;
 use crate::matching::candidates::search;
 use crate::matching::Correlator;
-use crate::score::score;
+use crate::score::{loop_score, score};
+use crate::track::Track;
 use crate::{Hypothesis, Result, Trajectory};
 
 /// Where path B overlaps path A, best first (at most `config.top_k`).
@@ -89,29 +92,50 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     let mut correlator = Correlator::new(&sig.value, sig.len());
     let candidates = search(&mut correlator, &sig.value, &pa.bounds, &query, clear);
     let xy = pa.points(false);
-    let mut hypotheses = Vec::new();
+    let track = &pa.track;
+    let mut verified = Vec::new();
+    // Shape candidates: grown points stay away from themselves along the
+    // path by at least the seed's own length.
     for cand in candidates.iter().take(config.max_candidates) {
-        // Grown points must stay away from themselves along the path by at
-        // least the seed's own length.
         let seed_len = sig.s[cand.query[1]] - sig.s[cand.query[0]];
-        let track = &pa.track;
-        let allowed = |g: usize, v: f64| {
-            (track.s[g] - crate::track::Track::interp(&track.s, v)).abs() > seed_len
+        let allowed = |g: usize, v: f64| (track.s[g] - Track::interp(&track.s, v)).abs() > seed_len;
+        verified.extend(verify::verify(pa, pa, &xy, cand, config, &allowed));
+    }
+    // Proximity seeds: the map's own frame, starting from the identity.
+    for seed in proximity::proximity_seeds(pa) {
+        let seed_len = track.s[seed.query[1]] - track.s[seed.query[0]];
+        let allowed = |g: usize, v: f64| (track.s[g] - Track::interp(&track.s, v)).abs() > seed_len;
+        verified.extend(verify::verify_seeded(
+            pa,
+            pa,
+            &xy,
+            seed.query,
+            Similarity2::identity(),
+            false,
+            config,
+            &allowed,
+        ));
+    }
+    let mut hypotheses = Vec::new();
+    for v in &verified {
+        let h = to_hypothesis(pa, pa, v, 0.0, true);
+        let s = match &config.drift_prior {
+            Some(prior) => {
+                let length = v.overlap.target_length.max(v.overlap.query_length);
+                let between = (track.s[track.grid_of_pose(h.a_range[0]) as usize]
+                    - track.s[track.grid_of_pose(h.b_range[1]) as usize])
+                    .abs();
+                let p = prior.factor(
+                    h.rotation_angle(),
+                    h.scale,
+                    median_offset(pa, &h),
+                    length,
+                    between,
+                );
+                loop_score(&v.evidence, p, &config.score)
+            }
+            None => score(&v.evidence, &config.score),
         };
-        let Some(v) = verify::verify(pa, pa, &xy, cand, config, &allowed) else {
-            continue;
-        };
-        let mut s = score(&v.evidence, &config.score);
-        let h = to_hypothesis(pa, pa, &v, s, true);
-        if let Some(prior) = &config.drift_prior {
-            let angle = h.rotation_angle();
-            let offset = median_offset(pa, &h);
-            let length = v.overlap.target_length.max(v.overlap.query_length);
-            let between = (pa.track.s[pa.track.grid_of_pose(h.a_range[0]) as usize]
-                - pa.track.s[pa.track.grid_of_pose(h.b_range[1]) as usize])
-                .abs();
-            s *= prior.factor(angle, h.scale, offset, length, between);
-        }
         hypotheses.push(Hypothesis { score: s, ..h });
     }
     rank::rank(hypotheses, config.top_k)
@@ -145,7 +169,10 @@ fn to_hypothesis(
     let mirrored = v.candidate.orientation.mirrored;
     let mut a_t_b = pa.plane.lift(&pb.plane(mirrored), &o.a_T_b);
     let mut a_range = [pa.pose_of_grid(o.target[0]), pa.pose_of_grid(o.target[1])];
-    let mut b_range = [pb.pose_of_grid(o.query[0] as f64), pb.pose_of_grid(o.query[1] as f64)];
+    let mut b_range = [
+        pb.pose_of_grid(o.query[0] as f64),
+        pb.pose_of_grid(o.query[1] as f64),
+    ];
     let step = (o.pairs.len() / 50).max(1);
     let mut correspondences: Vec<(usize, usize)> = o
         .pairs

@@ -45,13 +45,19 @@ impl PreparedPath {
             .iter()
             .position(|p| !p.position.iter().all(|v| v.is_finite()))
         {
-            return Err(Error::input(name, format!("pose {i} has a non-finite position")));
+            return Err(Error::input(
+                name,
+                format!("pose {i} has a non-finite position"),
+            ));
         }
         let positions = trajectory.positions();
         let plane = Plane::fit(&positions);
         let points: Vec<Vector2<f64>> = positions.iter().map(|p| plane.to_2d(p)).collect();
         let track = Track::build(&points).ok_or_else(|| {
-            Error::input(name, "the path does not move (fewer than 3 distinct positions)")
+            Error::input(
+                name,
+                "the path does not move (fewer than 3 distinct positions)",
+            )
         })?;
         let signature = Signature::build(&track, &config.signature);
         let bounds = boundaries(&signature, &config.segments);
@@ -70,7 +76,11 @@ impl PreparedPath {
     /// from the other side of its plane.
     pub fn points(&self, mirrored: bool) -> Vec<Vector2<f64>> {
         if mirrored {
-            self.track.xy.iter().map(|p| Vector2::new(p.x, -p.y)).collect()
+            self.track
+                .xy
+                .iter()
+                .map(|p| Vector2::new(p.x, -p.y))
+                .collect()
         } else {
             self.track.xy.clone()
         }

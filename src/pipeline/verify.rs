@@ -6,8 +6,10 @@ use nalgebra::Vector2;
 use super::{Config, PreparedPath};
 use crate::align::ransac::SplitMix;
 use crate::align::{grow_and_refit, ransac_similarity, Overlap};
-use crate::matching::Candidate;
+use crate::geometry::Similarity2;
+use crate::matching::{Candidate, Orientation};
 use crate::score::Evidence;
+use crate::track::Track;
 
 /// A candidate that survived geometry.
 #[derive(Debug, Clone)]
@@ -72,16 +74,86 @@ pub fn verify(
         &config.grow,
         allowed,
     )?;
+    Some(finish(query, overlap, cand.clone(), cand.zncc))
+}
+
+/// Verifies a seed that already has a similarity (a proximity seed within
+/// one map starts from the identity): grow, refit, and correlate the
+/// curvature of the grown overlap for its ZNCC.
+#[allow(clippy::too_many_arguments)]
+#[allow(non_snake_case)]
+pub fn verify_seeded(
+    target: &PreparedPath,
+    query: &PreparedPath,
+    query_xy: &[Vector2<f64>],
+    seed: [usize; 2],
+    a_T_b: Similarity2,
+    mirrored: bool,
+    config: &Config,
+    allowed: &dyn Fn(usize, f64) -> bool,
+) -> Option<Verified> {
+    let overlap = grow_and_refit(
+        &target.track,
+        &target.polyline,
+        &query.track,
+        query_xy,
+        seed,
+        a_T_b,
+        &config.grow,
+        allowed,
+    )?;
+    let reversed = overlap.reversed;
+    let zncc = overlap_zncc(target, query, &overlap, reversed != mirrored);
+    let cand = Candidate {
+        orientation: Orientation { reversed, mirrored },
+        query: [0, 0],
+        line: 0,
+        zncc,
+        strength: 0.0,
+    };
+    Some(finish(query, overlap, cand, zncc))
+}
+
+/// The evidence of a grown overlap.
+fn finish(query: &PreparedPath, overlap: Overlap, candidate: Candidate, zncc: f64) -> Verified {
     let length = overlap.target_length.max(overlap.query_length);
     let evidence = Evidence {
-        zncc: cand.zncc,
+        zncc,
         turning: query.turning_between(overlap.query[0] as f64, overlap.query[1] as f64),
         relative_rmse: overlap.rmse / length.max(f64::MIN_POSITIVE),
         length_ratio: overlap.target_length / overlap.query_length,
     };
-    Some(Verified {
+    Verified {
         overlap,
-        candidate: cand.clone(),
+        candidate,
         evidence,
-    })
+    }
 }
+
+/// ZNCC of the two paths' curvature over the grown overlap, sampled at
+/// [`OVERLAP_SAMPLES`] uniform steps of the query's matched arc length
+/// (`negate` when one path travels or is seen the other way).
+pub fn overlap_zncc(
+    target: &PreparedPath,
+    query: &PreparedPath,
+    overlap: &Overlap,
+    negate: bool,
+) -> f64 {
+    let p = &overlap.pairs;
+    if p.len() < 4 {
+        return 0.0;
+    }
+    let sign = if negate { -1.0 } else { 1.0 };
+    let mut qv = Vec::with_capacity(OVERLAP_SAMPLES);
+    let mut tv = Vec::with_capacity(OVERLAP_SAMPLES);
+    for i in 0..OVERLAP_SAMPLES {
+        let k = (i * (p.len() - 1)) / (OVERLAP_SAMPLES - 1);
+        let (t, q) = p[k];
+        qv.push(sign * query.track.curvature[q]);
+        tv.push(Track::interp(&target.track.curvature, t));
+    }
+    crate::matching::zncc::zncc_pair(&qv, &tv)
+}
+
+/// Samples used by [`overlap_zncc`].
+pub const OVERLAP_SAMPLES: usize = 64;
