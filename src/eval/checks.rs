@@ -121,7 +121,7 @@ pub fn merge_verdict_of(
 }
 
 /// A loop hypothesis reduced to what the loop test needs.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct LoopClaim {
     /// Later (query) part, inclusive input pose indices.
     pub query: [usize; 2],

@@ -43,6 +43,8 @@ pub struct LoopRun {
     pub rank1_correct: bool,
     pub seconds: f64,
     pub error: Option<String>,
+    /// The returned loops, best first, each with its verdict.
+    pub loops: Vec<(LoopClaim, bool)>,
 }
 
 /// The input path of a run and its ground-truth frame per pose.
@@ -67,7 +69,7 @@ fn score(
     truth: &[Vector3<f64>],
     frames: &[f64],
     p: &Prepared,
-) -> (usize, usize, usize, bool) {
+) -> (usize, usize, usize, Vec<bool>) {
     let ok: Vec<bool> = claims
         .iter()
         .map(|c| loop_correct(c, truth, LOOP_RADIUS_M))
@@ -83,12 +85,7 @@ fn score(
         })
         .count();
     let correct = ok.iter().filter(|x| **x).count();
-    (
-        covered,
-        claims.len(),
-        correct,
-        ok.first().copied().unwrap_or(false),
-    )
+    (covered, claims.len(), correct, ok)
 }
 
 /// Runs `find_loops` and the naive baseline on one input (sequence, source,
@@ -128,7 +125,7 @@ pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [Loop
     let naive_seconds = start.elapsed().as_secs_f64();
 
     let make = |method, claims: &[LoopClaim], seconds, error| {
-        let (events_covered, returned, correct, rank1_correct) = score(claims, &truth, &frames, p);
+        let (events_covered, returned, correct, ok) = score(claims, &truth, &frames, p);
         LoopRun {
             sequence: p.seq.name.clone(),
             source,
@@ -138,9 +135,10 @@ pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [Loop
             events_covered,
             returned,
             correct,
-            rank1_correct,
+            rank1_correct: ok.first().copied().unwrap_or(false),
             seconds,
             error,
+            loops: claims.iter().copied().zip(ok).collect(),
         }
     };
     [

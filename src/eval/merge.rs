@@ -28,6 +28,10 @@ pub struct MergeCase {
     /// `"time"` (B shares part of A's drive) or `"revisit"` (a later pass).
     pub kind: &'static str,
     pub reversed: bool,
+    /// Ground-truth frames of A's window (inclusive).
+    pub a_frames: [usize; 2],
+    /// Ground-truth frames of B's window (inclusive).
+    pub b_frames: [usize; 2],
     /// Scale of the random similarity applied to B.
     pub scale: f64,
     pub a_poses: usize,
@@ -199,6 +203,8 @@ pub fn positive_case(
         source,
         kind: if revisit { "revisit" } else { "time" },
         reversed,
+        a_frames: a_win,
+        b_frames: b_win,
         scale,
         a_poses: a_traj.len(),
         b_poses: b_traj.len(),
