@@ -257,3 +257,75 @@ pub fn negative_case(
         seconds,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::data::{Sequence, Sourced};
+    use crate::eval::revisits::arc_lengths;
+    use rand::{rngs::StdRng, SeedableRng};
+
+    /// A winding closed course driven 1.6 times (so the second lap revisits
+    /// the first), about 1 m per frame; "mono" is the same course at scale
+    /// 0.05 with a few frames missing at the start.
+    fn synthetic() -> Prepared {
+        let n = 3000;
+        let gt: Vec<Vector3<f64>> = (0..n)
+            .map(|k| {
+                let th = k as f64 / n as f64 * 1.6 * std::f64::consts::TAU;
+                Vector3::new(
+                    250.0 * th.cos() + 60.0 * (3.0 * th).cos(),
+                    0.0,
+                    180.0 * th.sin() + 40.0 * (2.0 * th).sin(),
+                )
+            })
+            .collect();
+        let mono = Sourced {
+            positions: gt[5..].iter().map(|p| p * 0.05).collect(),
+            frames: (5..n).map(|f| f as f64).collect(),
+        };
+        let seq = Sequence {
+            name: "syn".into(),
+            arc: arc_lengths(&gt),
+            times: (0..n).map(|k| k as f64 * 0.1).collect(),
+            gt,
+            mono,
+            gps: None,
+        };
+        Prepared::new(seq)
+    }
+
+    #[test]
+    fn drawn_cases_have_common_road_and_a_passing_oracle() {
+        let p = synthetic();
+        assert!(p.events.iter().any(|e| e.length >= 200.0), "{:?}", p.events);
+        let spec = WindowSpec::default();
+        let mut rng = StdRng::seed_from_u64(5);
+        let (mut made, mut revisits) = (0, 0);
+        for i in 0..200 {
+            let source = if i % 2 == 0 { Source::Gt } else { Source::Mono };
+            let reversed = i % 4 < 2;
+            let Some(c) = positive_case(&mut rng, &p, source, reversed, &spec) else {
+                continue;
+            };
+            made += 1;
+            revisits += usize::from(c.kind == "revisit");
+            assert_eq!(c.reversed, reversed);
+            assert!(c.overlap_m >= 150.0, "{c:?}");
+            assert!(c.oracle_correct, "{c:?}");
+            assert!((0.01..=100.0).contains(&c.scale));
+            if c.kind == "revisit" {
+                assert!(
+                    c.a_frames[1] < c.b_frames[0] || c.b_frames[1] < c.a_frames[0],
+                    "{c:?}"
+                );
+            } else {
+                assert!(c.a_frames[0].max(c.b_frames[0]) < c.a_frames[1].min(c.b_frames[1]));
+            }
+        }
+        assert!(
+            made >= 100 && revisits >= 10,
+            "{made} cases, {revisits} revisits"
+        );
+    }
+}
