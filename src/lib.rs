@@ -21,3 +21,6 @@ pub mod hypothesis;
 pub mod pipeline;
 
 pub use hypothesis::Hypothesis;
+pub mod io;
+#[cfg(feature = "plot")]
+pub mod plot;
