@@ -20,7 +20,7 @@ use std::str::FromStr;
 
 use crate::{Error, Pose, Result, Trajectory};
 
-pub use gpx::geodetic_to_enu;
+pub use gpx::{geodetic_to_enu, Geodetic};
 pub use writer::{write_tum, write_tum_to};
 
 /// A trajectory file format (`--format`).
@@ -105,6 +105,12 @@ pub fn read_trajectory(path: &Path, format: Format) -> Result<Trajectory> {
         }
     };
     parse_trajectory(&text, format, path)
+}
+
+/// The format `Format::Auto` picks for `text` read from `path`: by
+/// extension, then by content (rules in the `detect` module).
+pub fn detect_format(text: &str, path: &Path) -> Result<Format> {
+    detect::detect(text.strip_prefix('\u{feff}').unwrap_or(text), path)
 }
 
 /// Parses a whole file's `text`; `path` is used for detection and messages.
