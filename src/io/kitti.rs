@@ -3,7 +3,7 @@
 //!
 //! The position is the last column `p`; the orientation is the rotation
 //! nearest to the block `R` (files store it rounded, so it is not exactly
-//! orthonormal).
+//! orthonormal), or none when `R` is far from any rotation.
 
 use std::path::Path;
 
@@ -38,14 +38,43 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
 
 /// The rotation nearest to `m`, or `None` when `m` is too far from one to
 /// mean an orientation (for instance all zeros).
+///
+/// Polar decomposition by Newton's iteration `R <- (R + R^-T) / 2`, which
+/// converges quadratically to the orthonormal factor from a near-rotation;
+/// the iteration count is fixed so that no input can make it loop.
 fn nearest_rotation(m: &Matrix3<f64>) -> Option<UnitQuaternion<f64>> {
-    // det = 1 for a rotation; a block far from that is not one.
-    let det = m.determinant();
-    if !(0.5..=2.0).contains(&det) {
+    // Only blocks close to orthonormal with det near +1 are orientations.
+    let defect = (m.transpose() * m - Matrix3::identity()).norm();
+    if !(defect < 0.1 && m.determinant() > 0.0) {
         return None;
     }
-    // Bounded iterations: the default (0) would iterate until convergence.
-    let r = Rotation3::from_matrix_eps(m, 1e-12, 100, Rotation3::identity());
-    let q = UnitQuaternion::from_rotation_matrix(&r);
+    let mut r = *m;
+    for _ in 0..8 {
+        let r_inv_t = r.try_inverse()?.transpose();
+        r = 0.5 * (r + r_inv_t);
+    }
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
+    let q = UnitQuaternion::new_normalize(q.into_inner());
     q.coords.iter().all(|c| c.is_finite()).then_some(q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn badly_scaled_blocks_give_a_rotation_or_none_never_nan() {
+        for m in [
+            Matrix3::new(1e200, 0.0, 0.0, 0.0, 1e-200, 0.0, 0.0, 0.0, 1.0),
+            Matrix3::new(1.0, 1e154, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+            Matrix3::zeros(),
+            -Matrix3::identity(),
+        ] {
+            if let Some(q) = nearest_rotation(&m) {
+                assert!(q.coords.iter().all(|c| c.is_finite()), "{m}");
+            }
+        }
+        let q = nearest_rotation(&Matrix3::identity()).unwrap();
+        assert!(q.angle() < 1e-12);
+    }
 }
