@@ -15,19 +15,21 @@
 pub mod align;
 pub mod error;
 pub mod geometry;
-pub mod matching;
-pub mod trajectory;
-
-pub use error::{Error, Result};
-pub use trajectory::{Pose, Trajectory};
 pub mod hypothesis;
+pub mod io;
+pub mod matching;
 pub mod pipeline;
+#[cfg(feature = "plot")]
+pub mod plot;
 pub mod score;
 pub mod segments;
 pub mod signature;
 pub mod track;
+pub mod trajectory;
 
+pub use error::{Error, Result};
 pub use hypothesis::Hypothesis;
 pub use pipeline::{find_loops, match_paths, Config};
+pub use trajectory::{Pose, Trajectory};
 #[cfg(feature = "eval")]
 pub mod eval;

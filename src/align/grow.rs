@@ -8,6 +8,9 @@ use nalgebra::Vector2;
 use crate::geometry::{Polyline2, Similarity2};
 use crate::track::Track;
 
+/// Largest factor by which growing may change the seed's scale.
+const MAX_SCALE_CHANGE: f64 = 1.5;
+
 /// Settings of growing and refitting.
 #[derive(Debug, Clone, Copy)]
 pub struct GrowConfig {
@@ -167,6 +170,11 @@ pub fn grow_and_refit(
         let Some(refit) = Similarity2::fit(&pairs, Some(&weights)) else {
             return result;
         };
+        // Refitting refines a seed by a few percent; a scale running away
+        // means the points collapsed onto a small part of the target.
+        if (refit.scale / a_T_b.scale).ln().abs() > MAX_SCALE_CHANGE.ln() {
+            return result;
+        }
         sim = refit;
         let residuals: Vec<f64> = pairs
             .iter()

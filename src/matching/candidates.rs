@@ -88,7 +88,7 @@ pub fn search(
     config: &QueryConfig,
     keep: impl Fn(&Candidate) -> bool,
 ) -> Vec<Candidate> {
-    let mut pooled: HashMap<(Orientation, i64), Candidate> = HashMap::new();
+    let mut pooled: HashMap<(Orientation, i64), Vec<Candidate>> = HashMap::new();
     let n_seg = bounds.len().saturating_sub(1);
     for first in 0..n_seg {
         for n in config.min_segments..=config.max_segments {
@@ -133,21 +133,24 @@ pub fn search(
             }
         }
     }
-    let mut out: Vec<Candidate> = pooled.into_values().collect();
+    let mut out: Vec<Candidate> = pooled.into_values().flatten().collect();
     out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
     out
 }
 
-/// Merges a vote into its line's pool entry.
+/// Merges a vote into the pool entry of its line whose query range it
+/// overlaps (parts of one line far apart are coincidences, kept apart).
 fn pool(
-    pooled: &mut HashMap<(Orientation, i64), Candidate>,
+    pooled: &mut HashMap<(Orientation, i64), Vec<Candidate>>,
     key: (Orientation, i64),
     cand: Candidate,
 ) {
-    match pooled.get_mut(&key) {
-        None => {
-            pooled.insert(key, cand);
-        }
+    let entries = pooled.entry(key).or_default();
+    let overlapping = entries
+        .iter_mut()
+        .find(|p| p.query[0] <= cand.query[1] && cand.query[0] <= p.query[1]);
+    match overlapping {
+        None => entries.push(cand),
         Some(p) => {
             p.strength += cand.strength;
             p.query = [p.query[0].min(cand.query[0]), p.query[1].max(cand.query[1])];

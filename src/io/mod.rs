@@ -1,0 +1,230 @@
+//! Reading trajectories from the file formats of `cli.md` ("Inputs") and
+//! writing them back as TUM.
+//!
+//! Every reader turns a whole file's text into a [`Trajectory`]; a line it
+//! cannot understand ends the read with [`Error::Parse`] naming the file and
+//! the 1-based line. Readers never panic, whatever the input.
+
+mod csv;
+mod detect;
+mod euroc;
+mod gpx;
+mod kitti;
+mod tum;
+mod writer;
+mod xyz;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use crate::{Error, Pose, Result, Trajectory};
+
+pub use gpx::{geodetic_to_enu, Geodetic};
+pub use writer::{write_tum, write_tum_to};
+
+/// A trajectory file format (`--format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Format {
+    /// Chosen by extension, then by sniffing the content.
+    #[default]
+    Auto,
+    /// `t x y z qx qy qz qw` per line.
+    Tum,
+    /// 12 numbers per line: a 3x4 row-major pose matrix.
+    Kitti,
+    /// EuRoC ground-truth CSV (`t_ns, px, py, pz, qw, qx, qy, qz, ...`).
+    Euroc,
+    /// `x y [z]` per line, whitespace or comma separated.
+    Xyz,
+    /// GPX 1.0/1.1 track points, converted to a local ENU frame in metres.
+    Gpx,
+    /// A CSV with a header naming its columns (`t`, `x`, `y`, `z`).
+    Csv,
+}
+
+impl Format {
+    /// Every format, `Auto` first.
+    pub const ALL: [Format; 7] = [
+        Format::Auto,
+        Format::Tum,
+        Format::Kitti,
+        Format::Euroc,
+        Format::Xyz,
+        Format::Gpx,
+        Format::Csv,
+    ];
+
+    /// The lowercase name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Auto => "auto",
+            Format::Tum => "tum",
+            Format::Kitti => "kitti",
+            Format::Euroc => "euroc",
+            Format::Xyz => "xyz",
+            Format::Gpx => "gpx",
+            Format::Csv => "csv",
+        }
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Format {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        let lower = s.trim().to_ascii_lowercase();
+        Format::ALL
+            .into_iter()
+            .find(|f| f.name() == lower)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Format::ALL.iter().map(|f| f.name()).collect();
+                format!("unknown format '{s}' (expected one of: {})", names.join(", "))
+            })
+    }
+}
+
+/// Reads the trajectory in `path`; `Format::Auto` detects the format.
+pub fn read_trajectory(path: &Path, format: Format) -> Result<Trajectory> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let text = match String::from_utf8(bytes) {
+        Ok(text) => text,
+        Err(e) => {
+            let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+            let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
+            return Err(parse_error(path, line, "not UTF-8 text"));
+        }
+    };
+    parse_trajectory(&text, format, path)
+}
+
+/// The format `Format::Auto` picks for `text` read from `path`: by
+/// extension, then by content (rules in the `detect` module).
+pub fn detect_format(text: &str, path: &Path) -> Result<Format> {
+    detect::detect(text.strip_prefix('\u{feff}').unwrap_or(text), path)
+}
+
+/// Parses a whole file's `text`; `path` is used for detection and messages.
+pub fn parse_trajectory(text: &str, format: Format, path: &Path) -> Result<Trajectory> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let format = match format {
+        Format::Auto => detect::detect(text, path)?,
+        f => f,
+    };
+    let poses = match format {
+        Format::Auto => unreachable!("detect never answers Auto"),
+        Format::Tum => tum::parse(text, path)?,
+        Format::Kitti => kitti::parse(text, path)?,
+        Format::Euroc => euroc::parse(text, path)?,
+        Format::Xyz => xyz::parse(text, path)?,
+        Format::Gpx => gpx::parse(text, path)?,
+        Format::Csv => csv::parse(text, path)?,
+    };
+    if poses.is_empty() {
+        let last_line = text.lines().count().max(1);
+        return Err(parse_error(
+            path,
+            last_line,
+            "no poses in file",
+        ));
+    }
+    Ok(Trajectory {
+        source: path.display().to_string(),
+        poses,
+    })
+}
+
+/// An [`Error::Parse`] for `path` at 1-based `line`.
+fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
+    Error::Parse {
+        path: PathBuf::from(path),
+        line,
+        message: message.into(),
+    }
+}
+
+/// The data lines of a line-oriented text format: `(1-based line number,
+/// trimmed text)`, skipping blank lines and `#` comments.
+fn data_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+}
+
+/// Parses one field as a finite number; the error message names the column.
+fn number(field: &str, column: usize) -> std::result::Result<f64, String> {
+    let field = field.trim();
+    match field.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(format!("non-finite value '{field}' in column {column}")),
+        Err(_) => Err(format!("not a number: '{}' in column {column}", clip(field))),
+    }
+}
+
+/// Parses every field as a finite number.
+fn numbers<'a>(fields: impl Iterator<Item = &'a str>) -> std::result::Result<Vec<f64>, String> {
+    fields.enumerate().map(|(i, f)| number(f, i + 1)).collect()
+}
+
+/// Fields split on whitespace.
+fn split_ws(line: &str) -> Vec<&str> {
+    line.split_whitespace().collect()
+}
+
+/// Fields split on commas and/or whitespace (empty fields dropped).
+fn split_comma_ws(line: &str) -> Vec<&str> {
+    line.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|f| !f.is_empty())
+        .collect()
+}
+
+/// A field shortened for a one-line message.
+fn clip(s: &str) -> String {
+    const MAX: usize = 40;
+    if s.chars().count() <= MAX {
+        s.to_string()
+    } else {
+        let head: String = s.chars().take(MAX).collect();
+        format!("{head}...")
+    }
+}
+
+/// An orientation from quaternion components, or an error for a zero one.
+fn quaternion(
+    w: f64,
+    x: f64,
+    y: f64,
+    z: f64,
+) -> std::result::Result<nalgebra::UnitQuaternion<f64>, String> {
+    let q = nalgebra::Quaternion::new(w, x, y, z);
+    let norm = q.norm();
+    // A quaternion this far from unit length is not an orientation at all
+    // (typically zeros in a column that should hold one).
+    if !norm.is_finite() || norm < 1e-6 {
+        return Err(format!("quaternion ({x} {y} {z} {w}) has no length"));
+    }
+    Ok(nalgebra::UnitQuaternion::new_normalize(q))
+}
+
+/// A pose with every field given.
+fn pose(
+    t: Option<f64>,
+    position: nalgebra::Vector3<f64>,
+    orientation: Option<nalgebra::UnitQuaternion<f64>>,
+) -> Pose {
+    Pose {
+        t,
+        position,
+        orientation,
+    }
+}
