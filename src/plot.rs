@@ -193,6 +193,9 @@ fn part(path: &[(f64, f64)], range: [usize; 2]) -> Vec<(f64, f64)> {
     path[first..=last.min(path.len() - 1)].to_vec()
 }
 
+/// One line of the figure: points, colour, stroke width, legend label.
+type Series<'a> = (&'a [(f64, f64)], RGBColor, u32, &'a str);
+
 /// Draws the figure on `root`; errors as text (the backend's error types
 /// differ).
 fn draw<DB: DrawingBackend>(
@@ -270,7 +273,7 @@ fn draw<DB: DrawingBackend>(
         .label("correspondences")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
 
-    let series: [(&[(f64, f64)], RGBColor, u32, &str); 4] = [
+    let series: [Series; 4] = [
         (&a2, A_COLOUR, 1, "A"),
         (&b2, B_COLOUR, 1, "B (in A's frame)"),
         (&part(&a2, h.a_range), A_COMMON, 7, "A common part"),
