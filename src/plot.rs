@@ -32,7 +32,7 @@ const PLOT_SIDE: u32 = 800;
 const MARGIN: u32 = 15;
 const X_LABELS: u32 = 45;
 const Y_LABELS: u32 = 75;
-const TITLE: u32 = 60;
+const TITLE: u32 = 90;
 
 /// Colours of Fig. 4/5: A red, B green, common parts magenta (A) and blue (B).
 /// A's common part is drawn wider than B's, under it, so both stay visible
@@ -252,6 +252,22 @@ fn draw<DB: DrawingBackend>(
         .draw()
         .map_err(err)?;
 
+    let series: [Series; 4] = [
+        (&a2, A_COLOUR, 2, "A"),
+        (&b2, B_COLOUR, 2, "B (in A's frame)"),
+        (&part(&a2, h.a_range), A_COMMON, 7, "A common part"),
+        (&part(&b2, h.b_range), B_COMMON, 3, "B common part"),
+    ];
+    for (points, colour, width, _) in &series {
+        chart
+            .draw_series(LineSeries::new(
+                points.iter().copied(),
+                colour.stroke_width(*width),
+            ))
+            .map_err(err)?;
+    }
+
+    // Correspondences on top: under the wide common parts they would vanish.
     let step = h
         .correspondences
         .len()
@@ -267,38 +283,31 @@ fn draw<DB: DrawingBackend>(
         .draw_series(
             links
                 .iter()
-                .map(|l| PathElement::new(l.to_vec(), BLACK.mix(0.7).stroke_width(1))),
+                .map(|l| PathElement::new(l.to_vec(), BLACK.stroke_width(1))),
         )
-        .map_err(err)?
-        .label("correspondences")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
+        .map_err(err)?;
 
-    let series: [Series; 4] = [
-        (&a2, A_COLOUR, 1, "A"),
-        (&b2, B_COLOUR, 1, "B (in A's frame)"),
-        (&part(&a2, h.a_range), A_COMMON, 7, "A common part"),
-        (&part(&b2, h.b_range), B_COMMON, 3, "B common part"),
-    ];
-    for (points, colour, width, label) in series {
-        chart
-            .draw_series(LineSeries::new(
-                points.iter().copied(),
+    // The legend goes in the title band: inside the chart it would hide
+    // part of a path, wherever it were put.
+    let entries = series
+        .iter()
+        .map(|(_, colour, width, label)| (*colour, (*width).clamp(2, 5), *label))
+        .chain([(BLACK, 1, "correspondences")]);
+    let mut x = MARGIN as i32;
+    let y = 72;
+    for (colour, width, label) in entries {
+        title
+            .draw(&PathElement::new(
+                vec![(x, y), (x + 24, y)],
                 colour.stroke_width(width),
             ))
-            .map_err(err)?
-            .label(label)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(width.max(2)))
-            });
+            .map_err(err)?;
+        title
+            .draw_text(label, &small, (x + 30, y - 8))
+            .map_err(err)?;
+        let (w, _) = title.estimate_text_size(label, &small).map_err(err)?;
+        x += 30 + w as i32 + 24;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(err)?;
     root.present().map_err(err)
 }
 

@@ -8,13 +8,17 @@ use turnprint::io::{read_trajectory, Format};
 use turnprint::plot::plot_merge;
 use turnprint::{Error, Hypothesis};
 
-/// A: KITTI 00 poses 0-3000; B: poses 1500-4540, so B's first 1501 poses
-/// are A's poses 1500-3000 (B is already in A's frame: identity similarity).
+/// A: KITTI 00 poses 0-3000; B: poses 1500-4540 shifted by 17 m,
+/// so B's first 1501 poses are A's poses 1500-3000 (B is already in A's
+/// frame: identity similarity).
 fn kitti00_halves() -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Hypothesis) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/00.txt");
     let positions = read_trajectory(&path, Format::Kitti).unwrap().positions();
     let a = positions[..=3000].to_vec();
-    let b = positions[1500..].to_vec();
+    // A residual of some metres, as a drifting estimate has, so that the
+    // correspondence lines have length.
+    let residual = Vector3::new(12.0, 0.0, -12.0);
+    let b: Vec<Vector3<f64>> = positions[1500..].iter().map(|p| p + residual).collect();
     let hypothesis = Hypothesis {
         rank: 1,
         score: 0.9,
@@ -25,7 +29,7 @@ fn kitti00_halves() -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Hypothesis) {
         scale: 1.0,
         rotation: Matrix3::identity(),
         translation: Vector3::zeros(),
-        rmse: 0.0,
+        rmse: residual.norm(),
         turning: 3.0,
         correspondences: (0..=1500).map(|k| (1500 + k, k)).collect(),
     };
