@@ -78,6 +78,9 @@ fn detection_sniffs_content_when_the_extension_says_nothing() {
         Format::Tum
     );
     assert_eq!(detect_format("", Path::new("a.GPX")).unwrap(), Format::Gpx);
+    assert_eq!(detect("1403715524907143168,1,2,3,1,0,0,0\n"), Format::Euroc);
+    // Comma-separated TUM or EuRoC with seconds: ambiguous, so no guess.
+    assert!(detect_format("0.5,1,2,3,0,0,0,1\n", p).is_err());
     let err = detect_format("1 2 3 4 5\n", p).unwrap_err().to_string();
     assert!(err.starts_with("trajectory.dat:1:"), "{err}");
     assert!(err.contains("--format"), "{err}");

@@ -1,5 +1,7 @@
 //! GPX 1.0/1.1 tracks: every `trkpt` (with `lat`, `lon`, optional `ele` and
-//! `time`) becomes a pose in a local east-north-up frame in metres.
+//! `time`) becomes a pose in a local east-north-up frame in metres. Tracks
+//! and segments are joined in file order; waypoints and route points are
+//! not part of the path and are ignored.
 //!
 //! Maths (WGS84, a = 6378137 m, f = 1/298.257223563, e² = f(2 - f)):
 //! a geodetic point (φ, λ, h) has ECEF coordinates
