@@ -32,6 +32,7 @@ fn main() {
         ["00", "02", "05", "06", "08"].iter().map(|s| s.to_string()).collect()
     };
     println!("mode {mode}");
+    let show_events = std::env::var("SCORES").is_ok();
     println!("seq  poses events detected  rate  delay_med_m delay_p90_m  cands correct share  push_p50_us push_p99_us  wall_s");
     let (mut ev_all, mut det_all, mut c_all, mut ok_all) = (0, 0, 0, 0);
     let mut delays_all = Vec::new();
@@ -44,7 +45,11 @@ fn main() {
             "drift" => (drifted(&gt_xyz), (0..gt_xyz.len()).collect()),
             _ => (gt_xyz.clone(), (0..gt_xyz.len()).collect()),
         };
-        let mut det = Detector::new(OnlineConfig::default(), Overflow::Block);
+        let mut config = OnlineConfig::default();
+        if let Ok(v) = std::env::var("MIN_SCORE") {
+            config.min_score = v.parse().expect("MIN_SCORE");
+        }
+        let mut det = Detector::new(config, Overflow::Block);
         let mut cands: Vec<CandidateEvent> = Vec::new();
         let mut lat = Vec::with_capacity(input.len());
         let t0 = std::time::Instant::now();
@@ -62,6 +67,9 @@ fn main() {
         let g: Vec<Vector3<f64>> = frames.iter().map(|&f| gt_xyz[f]).collect();
         let arc = arc_length(&g);
         let events = revisit_events(&g, &frames, &arc);
+        if show_events {
+            eprintln!("events {seq} {events:?}");
+        }
         let correct: Vec<bool> = cands.iter().map(|c| is_correct(c, &g)).collect();
         let mut delays = Vec::new();
         let mut detected = 0;
@@ -81,6 +89,11 @@ fn main() {
             }
         }
         let ok = correct.iter().filter(|&&b| b).count();
+        if std::env::var("SCORES").is_ok() {
+            for (c, ok) in cands.iter().zip(&correct) {
+                eprintln!("score {seq} {} {:.4} {} {} at {} q {:?} m {:?}", ok, c.hypothesis.score, c.proximity, c.hypothesis.reversed, c.at_pose, c.hypothesis.a_range, c.hypothesis.b_range);
+            }
+        }
         delays.sort_by(f64::total_cmp);
         let q = |v: &[f64], f: f64| if v.is_empty() { f64::NAN } else { v[((v.len() - 1) as f64 * f).round() as usize] };
         println!(
