@@ -32,3 +32,5 @@ pub use error::{Error, Result};
 pub use hypothesis::Hypothesis;
 pub use pipeline::{find_loops, match_paths, Config};
 pub use trajectory::{Pose, Trajectory};
+#[cfg(feature = "eval")]
+pub mod eval;

@@ -1,0 +1,346 @@
+//! The real paths of the evaluation and their ground truth: KITTI ground
+//! truth, the monocular ORB-SLAM2 estimates paired to ground-truth frames by
+//! timestamp, and the real 1 Hz GPS of KITTI 00 aligned to the ground truth
+//! in time (scanned offset) and space (Umeyama similarity).
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use serde::Serialize;
+
+use super::revisits::arc_lengths;
+use super::similarity::umeyama;
+use crate::{Error, Result};
+
+/// The KITTI sequences with loops that the evaluation uses.
+pub const SEQUENCES: [&str; 5] = ["00", "02", "05", "06", "08"];
+
+/// A path from one source with, for each pose, its ground-truth frame
+/// (fractional for GPS, whose times fall between camera frames).
+#[derive(Debug, Clone, Default)]
+pub struct Sourced {
+    /// Positions in the source's own frame and scale.
+    pub positions: Vec<Vector3<f64>>,
+    /// Ground-truth frame index of each pose.
+    pub frames: Vec<f64>,
+}
+
+/// Where the GPS of KITTI 00 sits relative to the ground truth.
+#[derive(Debug, Clone, Serialize)]
+pub struct GpsAlignment {
+    /// `t_kitti = t_gps - offset_s`.
+    pub offset_s: f64,
+    /// Scale of the GPS-to-ground-truth similarity.
+    pub scale: f64,
+    /// RMS distance (m) of aligned GPS to ground truth at GPS times.
+    pub rmse_m: f64,
+    /// GPS rows inside the ground truth's time span.
+    pub rows_used: usize,
+    /// GPS rows in the file.
+    pub rows: usize,
+}
+
+/// One KITTI sequence with its sources.
+#[derive(Debug, Clone)]
+pub struct Sequence {
+    /// Sequence name, e.g. `"00"`.
+    pub name: String,
+    /// Ground-truth camera positions (m), one per frame.
+    pub gt: Vec<Vector3<f64>>,
+    /// Frame times (s).
+    pub times: Vec<f64>,
+    /// Cumulative ground-truth arc length (m) per frame.
+    pub arc: Vec<f64>,
+    /// Monocular ORB-SLAM2 estimate, paired to frames by timestamp.
+    pub mono: Sourced,
+    /// Real GPS (00 only), paired to frames by the aligned time.
+    pub gps: Option<(Sourced, GpsAlignment)>,
+}
+
+impl Sequence {
+    /// Ground-truth position at a fractional frame (linear interpolation).
+    pub fn true_position(&self, frame: f64) -> Vector3<f64> {
+        interpolate(&self.gt, frame)
+    }
+
+    /// Ground-truth arc length at a fractional frame.
+    pub fn arc_at(&self, frame: f64) -> f64 {
+        let f = frame.clamp(0.0, (self.arc.len() - 1) as f64);
+        let k = (f.floor() as usize).min(self.arc.len().saturating_sub(2));
+        self.arc[k] + (f - k as f64) * (self.arc[k + 1] - self.arc[k])
+    }
+
+    /// First frame whose arc length reaches `s` (the last frame past the end).
+    pub fn frame_at_arc(&self, s: f64) -> usize {
+        self.arc.partition_point(|a| *a < s).min(self.arc.len() - 1)
+    }
+
+    /// Total road length (m).
+    pub fn length(&self) -> f64 {
+        *self.arc.last().unwrap_or(&0.0)
+    }
+}
+
+/// Linear interpolation of a sampled path at a fractional index.
+pub fn interpolate(points: &[Vector3<f64>], index: f64) -> Vector3<f64> {
+    let f = index.clamp(0.0, (points.len() - 1) as f64);
+    let k = (f.floor() as usize).min(points.len().saturating_sub(2));
+    let w = f - k as f64;
+    points[k] * (1.0 - w) + points[(k + 1).min(points.len() - 1)] * w
+}
+
+/// Fractional frame index of time `t` in sorted frame times (`None` outside).
+pub fn frame_at_time(times: &[f64], t: f64) -> Option<f64> {
+    if times.len() < 2 || t < times[0] || t > *times.last()? {
+        return None;
+    }
+    let k = times.partition_point(|x| *x <= t).clamp(1, times.len() - 1);
+    let (t0, t1) = (times[k - 1], times[k]);
+    Some((k - 1) as f64 + if t1 > t0 { (t - t0) / (t1 - t0) } else { 0.0 })
+}
+
+/// Resolves the data directory: `dir` if it holds `kitti_gt/00.txt`, else
+/// `tests/data` if that does.
+pub fn resolve_data_dir(dir: &Path) -> Result<PathBuf> {
+    for d in [dir, Path::new("tests/data")] {
+        if d.join("kitti_gt/00.txt").is_file() {
+            return Ok(d.to_path_buf());
+        }
+    }
+    Err(Error::input(
+        dir.display().to_string(),
+        "no kitti_gt/00.txt here nor in tests/data (pass --data DIR)",
+    ))
+}
+
+/// Loads one sequence (ground truth, times, mono estimate, and GPS for 00).
+pub fn load_sequence(dir: &Path, name: &str) -> Result<Sequence> {
+    let gt = reader::kitti_positions(&dir.join(format!("kitti_gt/{name}.txt")))?;
+    let times_path = dir.join(format!("kitti_gt/{name}_times.txt"));
+    let times = reader::times(&times_path)?;
+    if times.len() != gt.len() {
+        return Err(Error::input(
+            times_path.display().to_string(),
+            format!("{} times for {} poses", times.len(), gt.len()),
+        ));
+    }
+    let mono_raw = reader::tum(&dir.join(format!("kitti_orbslam2_vio/{name}_orbslam2_tum.txt")))?;
+    let mut mono = Sourced::default();
+    for (t, p) in mono_raw {
+        // Mono times are the frame times rounded to microseconds.
+        let k = times.partition_point(|x| *x < t);
+        let best = [k.saturating_sub(1), k.min(times.len() - 1)]
+            .into_iter()
+            .min_by(|a, b| (times[*a] - t).abs().total_cmp(&(times[*b] - t).abs()))
+            .filter(|j| (times[*j] - t).abs() < 0.02);
+        if let Some(j) = best {
+            mono.positions.push(p);
+            mono.frames.push(j as f64);
+        }
+    }
+    let arc = arc_lengths(&gt);
+    let mut seq = Sequence {
+        name: name.to_string(),
+        gt,
+        times,
+        arc,
+        mono,
+        gps: None,
+    };
+    if name == "00" {
+        let gps_path = dir.join("gtsam_data/KittiGps_converted.txt");
+        if gps_path.is_file() {
+            let rows = reader::gps_csv(&gps_path)?;
+            seq.gps = Some(align_gps(&seq, &rows).ok_or_else(|| {
+                Error::input(
+                    gps_path.display().to_string(),
+                    "GPS does not align with KITTI 00",
+                )
+            })?);
+        }
+    }
+    Ok(seq)
+}
+
+/// Finds the GPS time offset by scanning: for each candidate offset, the
+/// GPS rows inside the ground truth's time span are paired with the ground
+/// truth interpolated at their times, a similarity is fitted (Umeyama) and
+/// the offset with the smallest RMS residual wins (coarse 0.1 s steps over
+/// +-60 s around "first GPS row = first frame", then 0.005 s steps).
+pub fn align_gps(seq: &Sequence, rows: &[(f64, Vector3<f64>)]) -> Option<(Sourced, GpsAlignment)> {
+    let fit = |offset: f64| -> Option<(f64, f64, usize)> {
+        let (mut src, mut dst) = (Vec::new(), Vec::new());
+        for (t, p) in rows {
+            if let Some(f) = frame_at_time(&seq.times, t - offset) {
+                src.push(*p);
+                dst.push(seq.true_position(f));
+            }
+        }
+        if src.len() * 10 < rows.len() * 8 {
+            return None;
+        }
+        let sim = umeyama(&src, &dst)?;
+        let sq: f64 = src
+            .iter()
+            .zip(&dst)
+            .map(|(s, d)| (sim.apply(s) - d).norm_squared())
+            .sum();
+        Some(((sq / src.len() as f64).sqrt(), sim.scale, src.len()))
+    };
+    let base = rows.first()?.0 - seq.times[0];
+    let scan = |center: f64, half: f64, step: f64| {
+        let n = (half / step).round() as i64;
+        (-n..=n)
+            .filter_map(|k| {
+                let o = center + k as f64 * step;
+                fit(o).map(|r| (o, r))
+            })
+            .min_by(|a, b| a.1 .0.total_cmp(&b.1 .0))
+    };
+    let (coarse, _) = scan(base, 60.0, 0.1)?;
+    let (offset, (rmse_m, scale, rows_used)) = scan(coarse, 0.2, 0.005)?;
+    let mut gps = Sourced::default();
+    for (t, p) in rows {
+        if let Some(f) = frame_at_time(&seq.times, t - offset) {
+            gps.positions.push(*p);
+            gps.frames.push(f);
+        }
+    }
+    let alignment = GpsAlignment {
+        offset_s: offset,
+        scale,
+        rmse_m,
+        rows_used,
+        rows: rows.len(),
+    };
+    Some((gps, alignment))
+}
+
+/// TEMPORARY private readers, to be replaced by `crate::io::read_trajectory`
+/// (Format::Kitti / Tum / Csv) once the `io` module is merged. The frame
+/// times reader stays (one number per line is no trajectory format).
+mod reader {
+    use super::*;
+
+    fn lines(path: &Path) -> Result<Vec<(usize, String)>> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.trim().to_string()))
+            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+            .collect())
+    }
+
+    fn numbers(path: &Path, line: usize, text: &str, want: usize) -> Result<Vec<f64>> {
+        let v: std::result::Result<Vec<f64>, _> = text
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .map(str::parse::<f64>)
+            .collect();
+        match v {
+            Ok(v) if v.len() == want && v.iter().all(|x| x.is_finite()) => Ok(v),
+            _ => Err(Error::Parse {
+                path: path.to_path_buf(),
+                line,
+                message: format!("expected {want} finite numbers"),
+            }),
+        }
+    }
+
+    /// Positions (last column) of KITTI 3x4 pose lines.
+    pub fn kitti_positions(path: &Path) -> Result<Vec<Vector3<f64>>> {
+        lines(path)?
+            .iter()
+            .map(|(n, l)| numbers(path, *n, l, 12).map(|v| Vector3::new(v[3], v[7], v[11])))
+            .collect()
+    }
+
+    /// One time per line.
+    pub fn times(path: &Path) -> Result<Vec<f64>> {
+        lines(path)?
+            .iter()
+            .map(|(n, l)| numbers(path, *n, l, 1).map(|v| v[0]))
+            .collect()
+    }
+
+    /// `(t, position)` of TUM lines.
+    pub fn tum(path: &Path) -> Result<Vec<(f64, Vector3<f64>)>> {
+        lines(path)?
+            .iter()
+            .map(|(n, l)| numbers(path, *n, l, 8).map(|v| (v[0], Vector3::new(v[1], v[2], v[3]))))
+            .collect()
+    }
+
+    /// `(t, position)` of `Time,X,Y,Z` CSV rows (header skipped).
+    pub fn gps_csv(path: &Path) -> Result<Vec<(f64, Vector3<f64>)>> {
+        lines(path)?
+            .iter()
+            .filter(|(_, l)| !l.starts_with("Time"))
+            .map(|(n, l)| numbers(path, *n, l, 4).map(|v| (v[0], Vector3::new(v[1], v[2], v[3]))))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_at_time_interpolates_and_bounds() {
+        let times = [0.0, 0.1, 0.2, 0.4];
+        assert_eq!(frame_at_time(&times, 0.0), Some(0.0));
+        assert!((frame_at_time(&times, 0.3).unwrap() - 2.5).abs() < 1e-12);
+        assert_eq!(frame_at_time(&times, 0.4), Some(3.0));
+        assert_eq!(frame_at_time(&times, 0.41), None);
+        assert_eq!(frame_at_time(&times, -0.1), None);
+    }
+
+    #[test]
+    fn gps_offset_and_similarity_are_recovered() {
+        // A winding 200 s drive at 10 Hz; GPS at 1 Hz on another clock
+        // (t_gps = t + 1003.37) and in another frame, starting 6.6 s late.
+        let times: Vec<f64> = (0..2000).map(|k| k as f64 * 0.1).collect();
+        let at = |t: f64| Vector3::new(300.0 * (t / 30.0).sin(), 0.0, 300.0 * (t / 17.0).sin());
+        let gt: Vec<_> = times.iter().map(|t| at(*t)).collect();
+        let seq = Sequence {
+            name: "synthetic".into(),
+            arc: arc_lengths(&gt),
+            gt,
+            times,
+            mono: Sourced::default(),
+            gps: None,
+        };
+        let frame = super::super::similarity::Similarity {
+            scale: 1.0,
+            rotation: nalgebra::UnitQuaternion::from_euler_angles(1.2, -0.3, 0.5),
+            translation: Vector3::new(10.0, -20.0, 5.0),
+        };
+        let rows: Vec<_> = (0..200)
+            .map(|j| {
+                let t_gps = 1010.0 + j as f64;
+                (t_gps, frame.apply(&at(t_gps - 1003.37)))
+            })
+            .collect();
+        let (gps, fit) = align_gps(&seq, &rows).unwrap();
+        assert!((fit.offset_s - 1003.37).abs() < 0.006, "{fit:?}");
+        assert!(
+            (fit.scale - 1.0).abs() < 1e-3 && fit.rmse_m < 0.1,
+            "{fit:?}"
+        );
+        // Rows after the drive's end (t > 199.9 s) are dropped.
+        assert_eq!(gps.positions.len(), fit.rows_used);
+        assert_eq!(fit.rows_used, 194);
+        assert!((gps.frames[0] - 66.3).abs() < 0.1, "{}", gps.frames[0]);
+    }
+
+    #[test]
+    fn interpolate_between_samples() {
+        let p = [Vector3::zeros(), Vector3::new(2.0, 0.0, 0.0)];
+        assert_eq!(interpolate(&p, 0.25), Vector3::new(0.5, 0.0, 0.0));
+        assert_eq!(interpolate(&p, 5.0), p[1]);
+    }
+}

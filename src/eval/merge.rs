@@ -1,0 +1,331 @@
+//! The merge evaluation: windows A (ground truth) and B (ground truth, mono
+//! estimate or GPS, under a random similarity, half reversed) with common
+//! road, run through `match_paths`; negatives from different sequences.
+
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use rand::{seq::IndexedRandom, Rng};
+use serde::Serialize;
+
+use super::checks::{merge_verdict, merge_verdict_of, overlap};
+use super::similarity::{random_similarity, rotation_error_deg, scale_error_pct, umeyama};
+use super::windows::{overlapping_window, random_window, revisit_windows, Window, WindowSpec};
+use super::{Prepared, Source};
+use crate::pipeline::{match_paths, Config};
+use crate::{Hypothesis, Trajectory};
+
+/// Radius (m) within which ground-truth positions count as the same road.
+pub const SAME_ROAD_M: f64 = 8.0;
+/// Fewest poses a B window must have (1 Hz GPS windows are short).
+const MIN_POSES: usize = 20;
+
+/// One positive merge case and how the matcher did.
+#[derive(Debug, Clone, Serialize)]
+pub struct MergeCase {
+    pub sequence: String,
+    pub source: Source,
+    /// `"time"` (B shares part of A's drive) or `"revisit"` (a later pass).
+    pub kind: &'static str,
+    pub reversed: bool,
+    /// Ground-truth frames of A's window (inclusive).
+    pub a_frames: [usize; 2],
+    /// Ground-truth frames of B's window (inclusive).
+    pub b_frames: [usize; 2],
+    /// Scale of the random similarity applied to B.
+    pub scale: f64,
+    pub a_poses: usize,
+    pub b_poses: usize,
+    /// Ground-truth length (m) of the common road.
+    pub overlap_m: f64,
+    /// Rank-1 score, 0 when there is no hypothesis.
+    pub rank1_score: f64,
+    pub rank1_correct: bool,
+    /// One of the top 5 is correct.
+    pub top5_correct: bool,
+    /// Median error (m) of the rank-1 similarity on the common road.
+    pub rank1_error_m: Option<f64>,
+    /// Rotation error (deg) of a correct rank-1 against the best-fit truth.
+    pub rot_err_deg: Option<f64>,
+    /// Scale error (%) of a correct rank-1.
+    pub scale_err_pct: Option<f64>,
+    /// Harness check: the best-fit (Umeyama) similarity of B's common-road
+    /// poses onto their true positions passes the test (it can fail only
+    /// when the source itself bends more than the tolerance, e.g. mono drift).
+    pub oracle_correct: bool,
+    /// Wall time of `match_paths`.
+    pub seconds: f64,
+    /// `match_paths` failed (counted as no hypothesis).
+    pub error: Option<String>,
+}
+
+/// One negative pair (no common road) and its rank-1 score.
+#[derive(Debug, Clone, Serialize)]
+pub struct NegativeCase {
+    pub a_sequence: String,
+    pub b_sequence: String,
+    pub source: Source,
+    pub reversed: bool,
+    pub rank1_score: f64,
+    pub seconds: f64,
+}
+
+/// B cut from a source: input positions (source frame) and true positions.
+struct Cut {
+    input: Vec<Vector3<f64>>,
+    truth: Vec<Vector3<f64>>,
+}
+
+/// The poses of `source` whose ground-truth frame lies in the window.
+fn cut(p: &Prepared, source: Source, w: Window) -> Cut {
+    let seq = &p.seq;
+    let (lo, hi) = (w[0] as f64, w[1] as f64);
+    let (positions, frames): (Vec<Vector3<f64>>, Vec<f64>) = match source {
+        Source::Gt | Source::Drift => (
+            seq.gt[w[0]..=w[1]].to_vec(),
+            (w[0]..=w[1]).map(|f| f as f64).collect(),
+        ),
+        Source::Mono => keep(&seq.mono.positions, &seq.mono.frames, lo, hi),
+        Source::Gps => match &seq.gps {
+            Some((g, _)) => keep(&g.positions, &g.frames, lo, hi),
+            None => (Vec::new(), Vec::new()),
+        },
+    };
+    Cut {
+        truth: frames.iter().map(|f| seq.true_position(*f)).collect(),
+        input: positions,
+    }
+}
+
+fn keep(pos: &[Vector3<f64>], frames: &[f64], lo: f64, hi: f64) -> (Vec<Vector3<f64>>, Vec<f64>) {
+    pos.iter()
+        .zip(frames)
+        .filter(|(_, f)| (lo..=hi).contains(*f))
+        .map(|(p, f)| (*p, *f))
+        .unzip()
+}
+
+/// Reverses B's pose order (when asked) and puts B under a random similarity.
+fn disguise(rng: &mut impl Rng, mut b: Cut, reversed: bool) -> (Cut, bool, f64) {
+    if reversed {
+        b.input.reverse();
+        b.truth.reverse();
+    }
+    let extent = b
+        .input
+        .iter()
+        .map(|p| (p - b.input[0]).norm())
+        .fold(0.0, f64::max);
+    let sim = random_similarity(rng, extent.max(1.0));
+    b.input = b.input.iter().map(|p| sim.apply(p)).collect();
+    (b, reversed, sim.scale)
+}
+
+fn run_match(
+    a: &Trajectory,
+    b: &Trajectory,
+    top_k: usize,
+) -> (Vec<Hypothesis>, f64, Option<String>) {
+    let mut config = Config::for_matching();
+    config.top_k = top_k;
+    let start = Instant::now();
+    let out = match_paths(a, b, &config);
+    let seconds = start.elapsed().as_secs_f64();
+    match out {
+        Ok(mut h) => {
+            h.sort_by(|x, y| y.score.total_cmp(&x.score));
+            h.truncate(top_k);
+            (h, seconds, None)
+        }
+        Err(e) => (Vec::new(), seconds, Some(e.to_string())),
+    }
+}
+
+/// Draws and runs one positive case, B reversed or not (`None`: the draw
+/// did not fit, retry).
+pub fn positive_case(
+    rng: &mut impl Rng,
+    p: &Prepared,
+    source: Source,
+    reversed: bool,
+    spec: &WindowSpec,
+) -> Option<MergeCase> {
+    let arc = &p.seq.arc;
+    let long_events: Vec<_> = p
+        .events
+        .iter()
+        .filter(|e| e.length >= spec.overlap.0)
+        .collect();
+    let revisit = !long_events.is_empty() && rng.random_bool(1.0 / 3.0);
+    let (a_win, b_win) = if revisit {
+        let event = long_events.choose(rng)?;
+        revisit_windows(rng, arc, event, &p.revisits, spec)?
+    } else {
+        let a = random_window(rng, arc, spec.a_len.0, spec.a_len.1)?;
+        (a, overlapping_window(rng, arc, a, spec)?)
+    };
+    let a_cut = cut(p, Source::Gt, a_win);
+    let b_cut = cut(p, source, b_win);
+    if b_cut.input.len() < MIN_POSES {
+        return None;
+    }
+    let (b, reversed, scale) = disguise(rng, b_cut, reversed);
+    let truth = overlap(&a_cut.truth, &b.truth, SAME_ROAD_M);
+    if truth.length < 0.75 * spec.overlap.0 || truth.b.len() < 3 {
+        return None;
+    }
+    let a_traj = Trajectory::from_positions(format!("{}-gt", p.seq.name), &a_cut.input);
+    let b_traj = Trajectory::from_positions(format!("{}-{}", p.seq.name, source.name()), &b.input);
+    let (hyps, seconds, error) = run_match(&a_traj, &b_traj, 5);
+    let verdicts: Vec<_> = hyps
+        .iter()
+        .map(|h| merge_verdict(h, &b.input, &b.truth, &truth))
+        .collect();
+    let rank1_correct = verdicts.first().is_some_and(|v| v.correct);
+    let src: Vec<_> = truth.b.iter().map(|&k| b.input[k]).collect();
+    let dst: Vec<_> = truth.b.iter().map(|&k| b.truth[k]).collect();
+    let best = umeyama(&src, &dst);
+    let oracle_correct = best.as_ref().is_some_and(|o| {
+        let (a_all, b_all) = (
+            [truth.a[0], truth.a[truth.a.len() - 1]],
+            [truth.b[0], truth.b[truth.b.len() - 1]],
+        );
+        merge_verdict_of(|p| o.apply(p), a_all, b_all, &b.input, &b.truth, &truth).correct
+    });
+    let (mut rot_err_deg, mut scale_err_pct) = (None, None);
+    if let (true, Some(best)) = (rank1_correct, &best) {
+        let r_true = best.rotation.to_rotation_matrix().into_inner();
+        rot_err_deg = Some(rotation_error_deg(&hyps[0].rotation, &r_true));
+        scale_err_pct = Some(scale_error_pct(hyps[0].scale, best.scale));
+    }
+    Some(MergeCase {
+        sequence: p.seq.name.clone(),
+        source,
+        kind: if revisit { "revisit" } else { "time" },
+        reversed,
+        a_frames: a_win,
+        b_frames: b_win,
+        scale,
+        a_poses: a_traj.len(),
+        b_poses: b_traj.len(),
+        overlap_m: truth.length,
+        rank1_score: hyps.first().map_or(0.0, |h| h.score),
+        rank1_correct,
+        top5_correct: verdicts.iter().any(|v| v.correct),
+        rank1_error_m: verdicts.first().map(|v| v.median_error),
+        rot_err_deg,
+        scale_err_pct,
+        oracle_correct,
+        seconds,
+        error,
+    })
+}
+
+/// Draws and runs one negative pair: A from one sequence, B (any source)
+/// from another, same window lengths and disguise as the positives.
+pub fn negative_case(
+    rng: &mut impl Rng,
+    all: &[Prepared],
+    reversed: bool,
+    spec: &WindowSpec,
+) -> Option<NegativeCase> {
+    let ia = rng.random_range(0..all.len());
+    let ib = (ia + rng.random_range(1..all.len())) % all.len();
+    let (pa, pb) = (&all[ia], &all[ib]);
+    let mut sources = vec![Source::Gt, Source::Mono];
+    if pb.seq.gps.is_some() {
+        sources.push(Source::Gps);
+    }
+    let source = *sources.choose(rng)?;
+    let a_win = random_window(rng, &pa.seq.arc, spec.a_len.0, spec.a_len.1)?;
+    let b_win = random_window(rng, &pb.seq.arc, spec.a_len.0, spec.a_len.1)?;
+    let a_cut = cut(pa, Source::Gt, a_win);
+    let b_cut = cut(pb, source, b_win);
+    if b_cut.input.len() < MIN_POSES {
+        return None;
+    }
+    let (b, reversed, _) = disguise(rng, b_cut, reversed);
+    let a_traj = Trajectory::from_positions(format!("{}-gt", pa.seq.name), &a_cut.input);
+    let b_traj = Trajectory::from_positions(format!("{}-{}", pb.seq.name, source.name()), &b.input);
+    let (hyps, seconds, _) = run_match(&a_traj, &b_traj, 5);
+    Some(NegativeCase {
+        a_sequence: pa.seq.name.clone(),
+        b_sequence: pb.seq.name.clone(),
+        source,
+        reversed,
+        rank1_score: hyps.first().map_or(0.0, |h| h.score),
+        seconds,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::data::{Sequence, Sourced};
+    use crate::eval::revisits::arc_lengths;
+    use rand::{rngs::StdRng, SeedableRng};
+
+    /// A winding closed course driven 1.6 times (so the second lap revisits
+    /// the first), about 1 m per frame; "mono" is the same course at scale
+    /// 0.05 with a few frames missing at the start.
+    fn synthetic() -> Prepared {
+        let n = 3000;
+        let gt: Vec<Vector3<f64>> = (0..n)
+            .map(|k| {
+                let th = k as f64 / n as f64 * 1.6 * std::f64::consts::TAU;
+                Vector3::new(
+                    250.0 * th.cos() + 60.0 * (3.0 * th).cos(),
+                    0.0,
+                    180.0 * th.sin() + 40.0 * (2.0 * th).sin(),
+                )
+            })
+            .collect();
+        let mono = Sourced {
+            positions: gt[5..].iter().map(|p| p * 0.05).collect(),
+            frames: (5..n).map(|f| f as f64).collect(),
+        };
+        let seq = Sequence {
+            name: "syn".into(),
+            arc: arc_lengths(&gt),
+            times: (0..n).map(|k| k as f64 * 0.1).collect(),
+            gt,
+            mono,
+            gps: None,
+        };
+        Prepared::new(seq)
+    }
+
+    #[test]
+    fn drawn_cases_have_common_road_and_a_passing_oracle() {
+        let p = synthetic();
+        assert!(p.events.iter().any(|e| e.length >= 200.0), "{:?}", p.events);
+        let spec = WindowSpec::default();
+        let mut rng = StdRng::seed_from_u64(5);
+        let (mut made, mut revisits) = (0, 0);
+        for i in 0..200 {
+            let source = if i % 2 == 0 { Source::Gt } else { Source::Mono };
+            let reversed = i % 4 < 2;
+            let Some(c) = positive_case(&mut rng, &p, source, reversed, &spec) else {
+                continue;
+            };
+            made += 1;
+            revisits += usize::from(c.kind == "revisit");
+            assert_eq!(c.reversed, reversed);
+            assert!(c.overlap_m >= 150.0, "{c:?}");
+            assert!(c.oracle_correct, "{c:?}");
+            assert!((0.01..=100.0).contains(&c.scale));
+            if c.kind == "revisit" {
+                assert!(
+                    c.a_frames[1] < c.b_frames[0] || c.b_frames[1] < c.a_frames[0],
+                    "{c:?}"
+                );
+            } else {
+                assert!(c.a_frames[0].max(c.b_frames[0]) < c.a_frames[1].min(c.b_frames[1]));
+            }
+        }
+        assert!(
+            made >= 100 && revisits >= 10,
+            "{made} cases, {revisits} revisits"
+        );
+    }
+}

@@ -1,0 +1,206 @@
+//! The rerunnable evaluation of the batch matcher on real KITTI paths
+//! (`examples/evaluate.rs`): merging windows of ground truth with windows of
+//! ground truth, monocular estimates and GPS under random similarities, and
+//! finding loops on ground truth, mono and drifting paths against the naive
+//! nearest-earlier-position baseline. Results are Markdown tables or JSON.
+
+pub mod auc;
+pub mod baseline;
+pub mod checks;
+pub mod data;
+pub mod drift;
+pub mod loops;
+pub mod merge;
+pub mod report;
+pub mod revisits;
+pub mod similarity;
+pub mod windows;
+
+use std::path::PathBuf;
+
+use rand::{rngs::StdRng, Rng, SeedableRng};
+use serde::Serialize;
+
+use crate::Result;
+use data::{load_sequence, resolve_data_dir, Sequence, SEQUENCES};
+pub use report::Report;
+
+/// Ground-truth revisits: within this distance (m) ...
+pub const REVISIT_RADIUS_M: f64 = 8.0;
+/// ... of a pose at least this many frames earlier.
+pub const REVISIT_MIN_FRAMES: usize = 300;
+/// An event spans at least this much road (m) ...
+pub const EVENT_MIN_M: f64 = 40.0;
+/// ... allowing this many non-revisiting frames inside.
+pub const EVENT_MAX_GAP: usize = 5;
+
+/// Where a test path comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Source {
+    /// KITTI ground truth.
+    Gt,
+    /// Monocular ORB-SLAM2 estimate.
+    Mono,
+    /// Real 1 Hz GPS (KITTI 00).
+    Gps,
+    /// Ground truth with strong heading and scale drift.
+    Drift,
+}
+
+impl Source {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Source::Gt => "gt",
+            Source::Mono => "mono",
+            Source::Gps => "gps",
+            Source::Drift => "drift",
+        }
+    }
+}
+
+/// A sequence with its ground-truth revisits and events.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// The sequence and its sources.
+    pub seq: Sequence,
+    /// Per frame: the nearest frame >= 300 earlier within 8 m.
+    pub revisits: Vec<Option<usize>>,
+    /// Runs of revisits spanning >= 40 m.
+    pub events: Vec<revisits::Event>,
+}
+
+impl Prepared {
+    /// Computes the revisits and events of a sequence.
+    pub fn new(seq: Sequence) -> Self {
+        let revisits = revisits::revisits(&seq.gt, REVISIT_RADIUS_M, REVISIT_MIN_FRAMES);
+        let events = revisits::events(&revisits, &seq.arc, EVENT_MAX_GAP, EVENT_MIN_M);
+        Prepared {
+            seq,
+            revisits,
+            events,
+        }
+    }
+}
+
+/// What to evaluate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum What {
+    /// Merging windows.
+    Merge,
+    /// Loops of whole sequences.
+    Loops,
+    /// Both.
+    All,
+}
+
+/// Settings of one evaluation run.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Data directory (holds `kitti_gt/`, `kitti_orbslam2_vio/`, `gtsam_data/`).
+    pub data: PathBuf,
+    /// Seed of every random draw.
+    pub seed: u64,
+    /// Positive merge cases.
+    pub cases: usize,
+    /// Negative merge pairs.
+    pub negatives: usize,
+    /// Loop runs per sequence and source (seeds `seed..seed + n`).
+    pub loop_seeds: u64,
+    /// What to run.
+    pub what: What,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            data: PathBuf::from("../shared/data"),
+            seed: 1,
+            cases: 120,
+            negatives: 40,
+            loop_seeds: 2,
+            what: What::All,
+        }
+    }
+}
+
+/// Runs the evaluation and returns every case with the summaries.
+pub fn run(opts: &Options) -> Result<Report> {
+    let dir = resolve_data_dir(&opts.data)?;
+    let prepared: Vec<Prepared> = SEQUENCES
+        .iter()
+        .map(|name| load_sequence(&dir, name).map(Prepared::new))
+        .collect::<Result<_>>()?;
+    let do_merge = matches!(opts.what, What::Merge | What::All);
+    let do_loops = matches!(opts.what, What::Loops | What::All);
+    let total = if do_merge {
+        opts.cases + opts.negatives
+    } else {
+        0
+    } + if do_loops {
+        15 * opts.loop_seeds as usize
+    } else {
+        0
+    };
+    let bar = indicatif::ProgressBar::new(total as u64);
+    let mut report = Report::new(&dir, opts.seed, &prepared);
+    if do_merge {
+        let spec = windows::WindowSpec::default();
+        let mut rng = StdRng::seed_from_u64(opts.seed);
+        let with_gps: Vec<&Prepared> = prepared.iter().filter(|p| p.seq.gps.is_some()).collect();
+        let sources: &[Source] = if with_gps.is_empty() {
+            &[Source::Gt, Source::Mono]
+        } else {
+            &[Source::Gt, Source::Mono, Source::Gps]
+        };
+        let mut cases = Vec::new();
+        let mut draws = 0;
+        while cases.len() < opts.cases && draws < 50 * opts.cases.max(1) {
+            draws += 1;
+            // Sources take turns (GPS only where there is GPS: KITTI 00);
+            // every other round of turns has B reversed.
+            let source = sources[cases.len() % sources.len()];
+            let reversed = (cases.len() / sources.len()) % 2 == 1;
+            let p = match (source, with_gps.first()) {
+                (Source::Gps, Some(p)) => *p,
+                _ => &prepared[rng.random_range(0..prepared.len())],
+            };
+            if let Some(c) = merge::positive_case(&mut rng, p, source, reversed, &spec) {
+                cases.push(c);
+                bar.inc(1);
+            }
+        }
+        let mut negatives = Vec::new();
+        draws = 0;
+        while negatives.len() < opts.negatives && draws < 50 * opts.negatives.max(1) {
+            draws += 1;
+            if let Some(n) =
+                merge::negative_case(&mut rng, &prepared, negatives.len() % 2 == 1, &spec)
+            {
+                negatives.push(n);
+                bar.inc(1);
+            }
+        }
+        report.set_merge(cases, negatives, spec);
+    }
+    if do_loops {
+        let drift = drift::DriftModel::strong();
+        let mut runs = Vec::new();
+        for p in &prepared {
+            for source in [Source::Gt, Source::Mono, Source::Drift] {
+                for k in 0..opts.loop_seeds {
+                    // One seed per (sequence, source, k): reruns repeat.
+                    let seed = opts.seed.wrapping_mul(1000).wrapping_add(k)
+                        ^ (p.seq.name.parse::<u64>().unwrap_or(0) << 20)
+                        ^ ((source as u64) << 40);
+                    runs.extend(loops::run(p, source, seed, &drift));
+                    bar.inc(1);
+                }
+            }
+        }
+        report.set_loops(runs, drift, baseline::Naive::default());
+    }
+    bar.finish_and_clear();
+    Ok(report)
+}

@@ -1,0 +1,386 @@
+//! The evaluation's results: per-case records, their summaries (rates by
+//! source, sequence and kind; ROC AUC; timing) and the Markdown tables.
+
+use std::fmt::Write;
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::auc::roc_auc;
+use super::baseline::Naive;
+use super::checks::median;
+use super::data::GpsAlignment;
+use super::drift::DriftModel;
+use super::loops::LoopRun;
+use super::merge::{MergeCase, NegativeCase};
+use super::windows::WindowSpec;
+use super::{Prepared, Source};
+
+/// Everything one evaluation run measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub data_dir: String,
+    pub seed: u64,
+    /// Time and space alignment of the KITTI 00 GPS.
+    pub gps_alignment: Option<GpsAlignment>,
+    /// Ground-truth revisit events per sequence.
+    pub events: Vec<(String, usize)>,
+    pub merge: Option<MergeReport>,
+    pub loops: Option<LoopsReport>,
+}
+
+/// Rates of one group of merge cases.
+#[derive(Debug, Clone, Serialize)]
+pub struct MergeRow {
+    pub group: String,
+    pub cases: usize,
+    pub rank1_correct_pct: f64,
+    pub top5_correct_pct: f64,
+    /// Median over correct rank-1 hypotheses.
+    pub median_rot_err_deg: f64,
+    pub median_scale_err_pct: f64,
+}
+
+/// The merge evaluation.
+#[derive(Debug, Clone, Serialize)]
+pub struct MergeReport {
+    pub windows: WindowSpec,
+    pub rows: Vec<MergeRow>,
+    /// ROC AUC of rank-1 scores, true pairs against negatives.
+    pub auc: f64,
+    pub median_match_s: f64,
+    pub mean_match_s: f64,
+    pub max_match_s: f64,
+    pub errors: usize,
+    pub cases: Vec<MergeCase>,
+    pub negatives: Vec<NegativeCase>,
+}
+
+/// Figures of one method on one group of loop runs.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopFigures {
+    pub rank1_correct_pct: f64,
+    pub events_covered_pct: f64,
+    pub precision_pct: f64,
+    pub mean_s: f64,
+}
+
+/// One row of the loop table: a sequence and source (or a total).
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopRow {
+    pub sequence: String,
+    pub source: String,
+    pub runs: usize,
+    pub events: usize,
+    pub turnprint: LoopFigures,
+    pub naive: LoopFigures,
+}
+
+/// The loop evaluation.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopsReport {
+    pub drift: DriftModel,
+    pub naive: Naive,
+    pub rows: Vec<LoopRow>,
+    pub runs: Vec<LoopRun>,
+}
+
+fn pct(n: usize, d: usize) -> f64 {
+    if d == 0 {
+        f64::NAN
+    } else {
+        100.0 * n as f64 / d as f64
+    }
+}
+
+fn merge_row(group: impl Into<String>, cases: &[&MergeCase]) -> MergeRow {
+    let n = cases.len();
+    let rot: Vec<f64> = cases.iter().filter_map(|c| c.rot_err_deg).collect();
+    let scale: Vec<f64> = cases.iter().filter_map(|c| c.scale_err_pct).collect();
+    MergeRow {
+        group: group.into(),
+        cases: n,
+        rank1_correct_pct: pct(cases.iter().filter(|c| c.rank1_correct).count(), n),
+        top5_correct_pct: pct(cases.iter().filter(|c| c.top5_correct).count(), n),
+        median_rot_err_deg: median(&rot),
+        median_scale_err_pct: median(&scale),
+    }
+}
+
+fn loop_figures(runs: &[&LoopRun]) -> LoopFigures {
+    let sum = |f: fn(&LoopRun) -> usize| runs.iter().map(|r| f(r)).sum::<usize>();
+    LoopFigures {
+        rank1_correct_pct: pct(runs.iter().filter(|r| r.rank1_correct).count(), runs.len()),
+        events_covered_pct: pct(sum(|r| r.events_covered), sum(|r| r.events)),
+        precision_pct: pct(sum(|r| r.correct), sum(|r| r.returned)),
+        mean_s: runs.iter().map(|r| r.seconds).sum::<f64>() / runs.len().max(1) as f64,
+    }
+}
+
+impl Report {
+    /// An empty report for the data in `dir`.
+    pub fn new(dir: &Path, seed: u64, prepared: &[Prepared]) -> Self {
+        Report {
+            data_dir: dir.display().to_string(),
+            seed,
+            gps_alignment: prepared
+                .iter()
+                .find_map(|p| p.seq.gps.as_ref().map(|g| g.1.clone())),
+            events: prepared
+                .iter()
+                .map(|p| (p.seq.name.clone(), p.events.len()))
+                .collect(),
+            merge: None,
+            loops: None,
+        }
+    }
+
+    /// Summarises the merge cases.
+    pub fn set_merge(
+        &mut self,
+        cases: Vec<MergeCase>,
+        negatives: Vec<NegativeCase>,
+        windows: WindowSpec,
+    ) {
+        let all: Vec<&MergeCase> = cases.iter().collect();
+        let mut rows = vec![merge_row("all", &all)];
+        for s in [Source::Gt, Source::Mono, Source::Gps] {
+            let g: Vec<_> = all.iter().copied().filter(|c| c.source == s).collect();
+            rows.push(merge_row(format!("source {}", s.name()), &g));
+        }
+        let mut seqs: Vec<&str> = all.iter().map(|c| c.sequence.as_str()).collect();
+        seqs.sort();
+        seqs.dedup();
+        for s in seqs {
+            let g: Vec<_> = all.iter().copied().filter(|c| c.sequence == s).collect();
+            rows.push(merge_row(format!("sequence {s}"), &g));
+        }
+        for (name, pick) in [
+            (
+                "time overlap",
+                &(|c: &MergeCase| c.kind == "time") as &dyn Fn(&MergeCase) -> bool,
+            ),
+            ("revisit overlap", &|c: &MergeCase| c.kind == "revisit"),
+            ("B forward", &|c: &MergeCase| !c.reversed),
+            ("B reversed", &|c: &MergeCase| c.reversed),
+        ] {
+            let g: Vec<_> = all.iter().copied().filter(|c| pick(c)).collect();
+            rows.push(merge_row(name, &g));
+        }
+        let pos: Vec<f64> = cases.iter().map(|c| c.rank1_score).collect();
+        let neg: Vec<f64> = negatives.iter().map(|n| n.rank1_score).collect();
+        let times: Vec<f64> = cases
+            .iter()
+            .map(|c| c.seconds)
+            .chain(negatives.iter().map(|n| n.seconds))
+            .collect();
+        self.merge = Some(MergeReport {
+            windows,
+            rows,
+            auc: roc_auc(&pos, &neg),
+            median_match_s: median(&times),
+            mean_match_s: times.iter().sum::<f64>() / times.len().max(1) as f64,
+            max_match_s: times.iter().copied().fold(0.0, f64::max),
+            errors: cases.iter().filter(|c| c.error.is_some()).count(),
+            cases,
+            negatives,
+        });
+    }
+
+    /// Summarises the loop runs per sequence and source, then per source.
+    pub fn set_loops(&mut self, runs: Vec<LoopRun>, drift: DriftModel, naive: Naive) {
+        let mut rows = Vec::new();
+        let mut keys: Vec<(String, Source)> = runs
+            .iter()
+            .map(|r| (r.sequence.clone(), r.source))
+            .collect();
+        keys.dedup();
+        let row = |seq: &str, source: &str, pick: &dyn Fn(&LoopRun) -> bool| {
+            let tp: Vec<&LoopRun> = runs
+                .iter()
+                .filter(|r| r.method == "turnprint" && pick(r))
+                .collect();
+            let nv: Vec<&LoopRun> = runs
+                .iter()
+                .filter(|r| r.method == "naive" && pick(r))
+                .collect();
+            LoopRow {
+                sequence: seq.to_string(),
+                source: source.to_string(),
+                runs: tp.len(),
+                events: tp.iter().map(|r| r.events).sum(),
+                turnprint: loop_figures(&tp),
+                naive: loop_figures(&nv),
+            }
+        };
+        for (seq, source) in &keys {
+            rows.push(row(seq, source.name(), &|r| {
+                &r.sequence == seq && r.source == *source
+            }));
+        }
+        for source in [Source::Gt, Source::Mono, Source::Drift] {
+            rows.push(row("all", source.name(), &|r| r.source == source));
+        }
+        rows.push(row("all", "all", &|_| true));
+        self.loops = Some(LoopsReport {
+            drift,
+            naive,
+            rows,
+            runs,
+        });
+    }
+
+    /// The tables in Markdown.
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "Data: `{}`, seed {}.\n", self.data_dir, self.seed);
+        if let Some(m) = &self.merge {
+            self.merge_markdown(m, &mut s);
+        }
+        if let Some(l) = &self.loops {
+            self.loops_markdown(l, &mut s);
+        }
+        s
+    }
+
+    fn merge_markdown(&self, m: &MergeReport, s: &mut String) {
+        let w = &m.windows;
+        let rev = m.cases.iter().filter(|c| c.reversed).count();
+        let _ = writeln!(s, "## Merging real paths\n");
+        let _ = writeln!(
+            s,
+            "{} cases ({} with B reversed), {} negatives. A: ground-truth window of {:.0}-{:.0} m; \
+             B: common road {:.0}-{:.0} m plus {:.0}-{:.0} m beyond A on one or both sides, under a random \
+             similarity (scale log-uniform 0.01..100, uniform rotation). Correct: median error of B's \
+             common-road poses <= max(2 % of common length, 3 m) and both ranges touch the common road.\n",
+            m.cases.len(),
+            rev,
+            m.negatives.len(),
+            w.a_len.0,
+            w.a_len.1,
+            w.overlap.0,
+            w.overlap.1,
+            w.extra.0,
+            w.extra.1
+        );
+        if let Some(g) = &self.gps_alignment {
+            let _ = writeln!(
+                s,
+                "GPS of KITTI 00: t_kitti = t_gps - {:.3} s; similarity scale {:.4}; RMSE {:.2} m over {} of {} rows.\n",
+                g.offset_s, g.scale, g.rmse_m, g.rows_used, g.rows
+            );
+        }
+        let _ = writeln!(
+            s,
+            "| group | cases | rank-1 correct | top-5 correct | median rot. error of correct rank-1 (deg) | median scale error of correct rank-1 (%) |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|");
+        for r in &m.rows {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} |",
+                r.group,
+                r.cases,
+                fmt_pct(r.rank1_correct_pct),
+                fmt_pct(r.top5_correct_pct),
+                fmt_num(r.median_rot_err_deg, 2),
+                fmt_num(r.median_scale_err_pct, 2)
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nROC AUC of rank-1 scores, {} true pairs vs {} negatives (score 0 without a hypothesis): **{}** (target >= 0.95).\n",
+            m.cases.len(),
+            m.negatives.len(),
+            fmt_num(m.auc, 3)
+        );
+        let _ = writeln!(
+            s,
+            "Harness check: the best-fit similarity of B's common road onto its true positions passes the test on {} of {} cases.\n",
+            m.cases.iter().filter(|c| c.oracle_correct).count(),
+            m.cases.len()
+        );
+        let _ = writeln!(
+            s,
+            "Time per match: median {:.1} ms, mean {:.1} ms, max {:.1} ms. `match_paths` errors: {}.\n",
+            1e3 * m.median_match_s,
+            1e3 * m.mean_match_s,
+            1e3 * m.max_match_s,
+            m.errors
+        );
+    }
+
+    fn loops_markdown(&self, l: &LoopsReport, s: &mut String) {
+        let d = &l.drift;
+        let _ = writeln!(s, "## Loops on real paths\n");
+        let events: Vec<String> = self
+            .events
+            .iter()
+            .map(|(n, e)| format!("{n}: {e}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "Revisit: pose within 8 m of a ground-truth pose >= 300 frames earlier; event: run of revisits \
+             (gaps <= 5 frames) spanning >= 40 m. Events per sequence: {}. Loop correct: median distance \
+             from its query poses to the nearest match poses <= 10 m (ground truth). Drift input: heading \
+             random walk {} deg/sqrt(m) and log-scale random walk {} /sqrt(m), knots every {} m, integrated \
+             over the relative motions. Naive baseline: nearest pose >= {} frames earlier in the input's \
+             frame within {} median steps, hits grouped (gaps <= {}, match jumps <= {}), ranked by mean \
+             distance. Every input is under a random similarity.\n",
+            events.join(", "),
+            d.heading_deg_per_sqrt_len,
+            d.log_scale_per_sqrt_len,
+            d.knot_spacing,
+            l.naive.min_gap,
+            l.naive.threshold_steps,
+            l.naive.max_gap,
+            l.naive.max_match_jump
+        );
+        let _ = writeln!(
+            s,
+            "| sequence | source | runs | events | rank-1 correct: turnprint | naive | events covered (top 10): turnprint | naive | precision of top 10: turnprint | naive | time per run: turnprint (s) |"
+        );
+        let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        for r in &l.rows {
+            let bold = if r.source == "drift" { "**" } else { "" };
+            let _ = writeln!(
+                s,
+                "| {} | {b}{}{b} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |",
+                r.sequence,
+                r.source,
+                r.runs,
+                r.events,
+                fmt_pct(r.turnprint.rank1_correct_pct),
+                fmt_pct(r.naive.rank1_correct_pct),
+                fmt_pct(r.turnprint.events_covered_pct),
+                fmt_pct(r.naive.events_covered_pct),
+                fmt_pct(r.turnprint.precision_pct),
+                fmt_pct(r.naive.precision_pct),
+                r.turnprint.mean_s,
+                b = bold
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nTargets: rank-1 correct on >= 90 % of runs, >= 90 % of events covered. Precision is `-` when nothing was returned. \
+             `find_loops` errors: {}.\n",
+            l.runs.iter().filter(|r| r.error.is_some()).count()
+        );
+    }
+}
+
+fn fmt_pct(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.1} %")
+    } else {
+        "-".to_string()
+    }
+}
+
+fn fmt_num(v: f64, digits: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.digits$}")
+    } else {
+        "-".to_string()
+    }
+}

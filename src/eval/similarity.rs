@@ -1,0 +1,197 @@
+//! Similarity transforms for the evaluation: the random frame changes applied
+//! to test paths, the least-squares (Umeyama) fit used to recover the true
+//! similarity of a noisy source, and the errors between two similarities.
+
+use nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector4};
+use rand::Rng;
+
+/// A similarity `p_dst = scale * rotation * p_src + translation`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Similarity {
+    /// Uniform scale (> 0).
+    pub scale: f64,
+    /// Proper rotation.
+    pub rotation: UnitQuaternion<f64>,
+    /// Translation, in the destination's units.
+    pub translation: Vector3<f64>,
+}
+
+impl Similarity {
+    /// The identity.
+    pub fn identity() -> Self {
+        Similarity {
+            scale: 1.0,
+            rotation: UnitQuaternion::identity(),
+            translation: Vector3::zeros(),
+        }
+    }
+
+    /// Maps a point of the source frame into the destination frame.
+    pub fn apply(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.scale * (self.rotation * p) + self.translation
+    }
+
+    /// The inverse map: `p_src = (rotation^T (p_dst - translation)) / scale`.
+    pub fn inverse(&self) -> Similarity {
+        let rotation = self.rotation.inverse();
+        Similarity {
+            scale: 1.0 / self.scale,
+            translation: -(rotation * self.translation) / self.scale,
+            rotation,
+        }
+    }
+}
+
+/// One standard normal sample (Box-Muller), so no extra distribution crate
+/// is needed.
+pub fn gaussian(rng: &mut impl Rng) -> f64 {
+    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A rotation drawn uniformly from SO(3): a normalised 4D Gaussian vector is
+/// a uniformly distributed unit quaternion.
+pub fn random_rotation(rng: &mut impl Rng) -> UnitQuaternion<f64> {
+    loop {
+        let v = Vector4::new(gaussian(rng), gaussian(rng), gaussian(rng), gaussian(rng));
+        if v.norm() > 1e-6 {
+            return UnitQuaternion::from_quaternion(nalgebra::Quaternion::from(v));
+        }
+    }
+}
+
+/// A random similarity: scale log-uniform in [0.01, 100], rotation uniform,
+/// translation uniform in a cube of half-side `extent` (source units) times
+/// the scale, so the translation is comparable to the path's own size.
+pub fn random_similarity(rng: &mut impl Rng, extent: f64) -> Similarity {
+    let scale = 10f64.powf(rng.random_range(-2.0..=2.0));
+    let rotation = random_rotation(rng);
+    let translation = Vector3::new(
+        rng.random_range(-1.0..=1.0),
+        rng.random_range(-1.0..=1.0),
+        rng.random_range(-1.0..=1.0),
+    ) * (extent * scale);
+    Similarity {
+        scale,
+        rotation,
+        translation,
+    }
+}
+
+/// Least-squares similarity with `dst_i ~ s R src_i + t` (Umeyama 1991):
+/// with centred point sets and `Sigma = (1/n) sum dst_c src_c^T = U D V^T`,
+/// `R = U S V^T` (`S` flips the last axis when `det(U V^T) < 0`),
+/// `s = tr(D S) / var(src)`, `t = mean(dst) - s R mean(src)`.
+/// `None` for fewer than 3 pairs or a degenerate (single-point) source.
+pub fn umeyama(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<Similarity> {
+    let n = src.len();
+    if n < 3 || dst.len() != n {
+        return None;
+    }
+    let mean = |v: &[Vector3<f64>]| v.iter().sum::<Vector3<f64>>() / n as f64;
+    let (mu_src, mu_dst) = (mean(src), mean(dst));
+    let mut sigma = Matrix3::zeros();
+    let mut var_src = 0.0;
+    for (s, d) in src.iter().zip(dst) {
+        let (sc, dc) = (s - mu_src, d - mu_dst);
+        sigma += dc * sc.transpose();
+        var_src += sc.norm_squared();
+    }
+    sigma /= n as f64;
+    var_src /= n as f64;
+    if var_src <= f64::EPSILON {
+        return None;
+    }
+    let svd = sigma.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let mut signs = Vector3::new(1.0, 1.0, 1.0);
+    if (u * v_t).determinant() < 0.0 {
+        signs[2] = -1.0;
+    }
+    let rotation_m = u * Matrix3::from_diagonal(&signs) * v_t;
+    let scale = svd.singular_values.dot(&signs) / var_src;
+    let rotation = UnitQuaternion::from_rotation_matrix(
+        &nalgebra::Rotation3::from_matrix_unchecked(rotation_m),
+    );
+    let translation = mu_dst - scale * (rotation * mu_src);
+    Some(Similarity {
+        scale,
+        rotation,
+        translation,
+    })
+}
+
+/// Angle (degrees) of the rotation taking `r_true` to `r_est`:
+/// `acos((tr(R_est R_true^T) - 1) / 2)`.
+pub fn rotation_error_deg(r_est: &Matrix3<f64>, r_true: &Matrix3<f64>) -> f64 {
+    let c = (((r_est * r_true.transpose()).trace() - 1.0) / 2.0).clamp(-1.0, 1.0);
+    c.acos().to_degrees()
+}
+
+/// Relative scale error in percent: `100 |s_est / s_true - 1|`.
+pub fn scale_error_pct(s_est: f64, s_true: f64) -> f64 {
+    100.0 * (s_est / s_true - 1.0).abs()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{rngs::StdRng, SeedableRng};
+
+    #[test]
+    fn random_rotations_are_proper_and_spread() {
+        let mut rng = StdRng::seed_from_u64(7);
+        let mut mean_angle = 0.0;
+        for _ in 0..500 {
+            let m = random_rotation(&mut rng).to_rotation_matrix().into_inner();
+            assert!((m * m.transpose() - Matrix3::identity()).norm() < 1e-12);
+            assert!((m.determinant() - 1.0).abs() < 1e-12);
+            mean_angle += rotation_error_deg(&m, &Matrix3::identity()) / 500.0;
+        }
+        // Uniform rotations have mean angle pi/2 + 2/pi rad = 126.5 deg.
+        assert!((mean_angle - 126.5).abs() < 5.0, "mean angle {mean_angle}");
+    }
+
+    #[test]
+    fn random_scales_span_four_decades() {
+        let mut rng = StdRng::seed_from_u64(8);
+        let scales: Vec<f64> = (0..2000)
+            .map(|_| random_similarity(&mut rng, 100.0).scale)
+            .collect();
+        assert!(scales.iter().all(|s| (0.01..=100.0).contains(s)));
+        let below_one = scales.iter().filter(|s| **s < 1.0).count();
+        assert!((900..1100).contains(&below_one), "{below_one} below 1");
+        assert!(scales.iter().any(|s| *s < 0.02) && scales.iter().any(|s| *s > 50.0));
+    }
+
+    #[test]
+    fn umeyama_recovers_a_random_similarity() {
+        let mut rng = StdRng::seed_from_u64(9);
+        let src: Vec<Vector3<f64>> = (0..50)
+            .map(|_| {
+                Vector3::new(gaussian(&mut rng), gaussian(&mut rng), gaussian(&mut rng)) * 30.0
+            })
+            .collect();
+        for _ in 0..20 {
+            let truth = random_similarity(&mut rng, 100.0);
+            let dst: Vec<_> = src.iter().map(|p| truth.apply(p)).collect();
+            let fit = umeyama(&src, &dst).unwrap();
+            assert!(scale_error_pct(fit.scale, truth.scale) < 1e-8);
+            let (r_fit, r_true) = (
+                fit.rotation.to_rotation_matrix().into_inner(),
+                truth.rotation.to_rotation_matrix().into_inner(),
+            );
+            assert!(rotation_error_deg(&r_fit, &r_true) < 1e-5);
+            let back = truth.inverse();
+            assert!((back.apply(&dst[3]) - src[3]).norm() < 1e-6 * (1.0 + src[3].norm()));
+        }
+    }
+
+    #[test]
+    fn umeyama_rejects_degenerate_input() {
+        let p = vec![Vector3::new(1.0, 2.0, 3.0); 5];
+        assert!(umeyama(&p, &p).is_none());
+        assert!(umeyama(&p[..2], &p[..2]).is_none());
+    }
+}
