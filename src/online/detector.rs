@@ -90,6 +90,8 @@ pub struct Detector {
     /// Outbox size (track samples) that triggers a hand-over without a new
     /// boundary: the periodic proximity probe.
     flush_samples: usize,
+    /// A send was deferred since the last one went through.
+    merging: bool,
 }
 
 
@@ -113,6 +115,7 @@ impl Detector {
             events,
             worker,
             flush_samples,
+            merging: false,
         }
     }
 
@@ -178,17 +181,23 @@ impl Detector {
             out: std::mem::take(&mut self.outbox),
             at_pose: self.poses - 1,
             frame,
+            merged: self.merging,
         };
         match self.overflow {
             Overflow::Block => {
                 if tx.send(m).is_ok() {
                     self.summary.messages += 1;
+                    self.merging = false;
                 }
             }
             Overflow::MergeLatest => match tx.try_send(m) {
-                Ok(()) => self.summary.messages += 1,
+                Ok(()) => {
+                    self.summary.messages += 1;
+                    self.merging = false;
+                }
                 Err(TrySendError::Full(m)) | Err(TrySendError::Disconnected(m)) => {
                     self.summary.deferred += 1;
+                    self.merging = true;
                     self.outbox = m.out;
                 }
             },

@@ -166,6 +166,7 @@ impl Searcher {
                             mirrored: false,
                         },
                         query: [q0, q1],
+                        seed: [q0, q1],
                         line,
                         zncc: z,
                         strength: z * z * len as f64,
@@ -176,9 +177,12 @@ impl Searcher {
                         .and_modify(|p| {
                             p.strength += cand.strength;
                             p.query = [p.query[0].min(q0), q1];
-                            if z > p.zncc {
+                            // The best vote (as the batch pool): highest
+                            // ZNCC, longer queries winning near-ties.
+                            if z * (q1 - q0) as f64 > p.zncc * (p.seed[1] - p.seed[0]) as f64 {
                                 p.zncc = z;
                                 p.line = line;
+                                p.seed = [q0, q1];
                             }
                         })
                         .or_insert(cand);
@@ -295,6 +299,7 @@ pub fn verify_all(
         let (qs, ts) = (qw.sig0 as i64, tw.sig0 as i64);
         let local = Candidate {
             query: [q0 - qw.sig0, q1 - qw.sig0],
+            seed: [cand.seed[0] - qw.sig0, cand.seed[1] - qw.sig0],
             line: if cand.orientation.reversed { cand.line - qs - ts } else { cand.line + qs - ts },
             ..cand.clone()
         };
@@ -421,6 +426,8 @@ fn finish(h: &History, tw: &Window, qw: &Window, v: &Verified, frame: &Frame, co
             translation: lifted.translation,
             rmse: o.rmse,
             turning: v.evidence.turning,
+            length,
+            length_ratio: v.evidence.length_ratio,
             correspondences,
         },
         proximity,

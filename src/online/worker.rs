@@ -43,6 +43,9 @@ pub struct Message {
     pub at_pose: usize,
     /// Track parameters.
     pub frame: Frame,
+    /// Samples of deferred sends were merged into this message: only its
+    /// newest segment is matched.
+    pub merged: bool,
 }
 
 /// What the worker did.
@@ -136,16 +139,16 @@ impl WorkerState {
             }
             self.stats.segments += 1;
             self.searcher.add_piece(&self.history, k, keep);
-            if i + 1 < new {
+            if m.merged && i + 1 < new {
                 self.stats.skipped += 1;
                 continue;
             }
-            events = self.match_newest(&m.frame, m.at_pose, true);
+            events.extend(self.match_newest(&m.frame, m.at_pose, true));
         }
         if new == 0 && self.config.proximity {
             // A periodic hand-over without a new segment: the proximity
             // probe alone (straight revisits finalise no segment for long).
-            events = self.match_newest(&m.frame, m.at_pose, false);
+            events.extend(self.match_newest(&m.frame, m.at_pose, false));
         }
         events
     }
