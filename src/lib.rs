@@ -18,6 +18,7 @@ pub mod geometry;
 pub mod hypothesis;
 pub mod io;
 pub mod matching;
+pub mod online;
 pub mod pipeline;
 #[cfg(feature = "plot")]
 pub mod plot;

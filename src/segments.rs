@@ -47,25 +47,152 @@ pub struct Segment {
     pub s: [f64; 2],
 }
 
-/// Boundaries (signature sample indices, increasing, first and last included).
+/// Boundaries (signature sample indices, increasing, first and last
+/// included): the [`BoundaryStream`] fed the whole signature.
 pub fn boundaries(sig: &Signature, config: &SegmentConfig) -> Vec<usize> {
-    let n = sig.len();
-    if n < 3 {
-        return if n == 0 { vec![] } else { vec![0, n - 1] };
+    let mut stream = BoundaryStream::new(config, sig.dk);
+    let mut out = Vec::new();
+    for &s in &sig.s {
+        out.extend(stream.push(s));
     }
-    let r = log_radius(sig);
-    let w = ((config.window / sig.dk).round() as usize).max(2);
-    let p = config.prominence_ratio.ln();
-    let mut out = vec![0];
-    for j in 1..n - 1 {
-        if is_extremum(&r, j, w, p) {
-            out.push(j);
+    out.extend(stream.flush());
+    out
+}
+
+/// Segment boundaries one signature sample at a time.
+///
+/// `r_j = ln(ds/dK)` needs sample `j + 1`; sample `j` is a boundary when it
+/// is the prominent extremum of `r` within `±w` samples, so it is final once
+/// sample `j + w + 1` has arrived: a bounded lag of `w + 1` samples
+/// (`window` radians of `K` plus one step).
+#[derive(Debug, Clone)]
+pub struct BoundaryStream {
+    w: usize,
+    p: f64,
+    /// Arc length of the first sample and of the last two.
+    s0: f64,
+    s_prev: [f64; 2],
+    /// `r` of samples `r_base ..`, the last `2w + 1` of them.
+    r: std::collections::VecDeque<f64>,
+    r_base: usize,
+    /// Samples received.
+    n: usize,
+    /// Next sample to test.
+    next: usize,
+}
+
+impl BoundaryStream {
+    /// A stream for signature step `dk` (radians).
+    pub fn new(config: &SegmentConfig, dk: f64) -> Self {
+        BoundaryStream {
+            w: ((config.window / dk).round() as usize).max(2),
+            p: config.prominence_ratio.ln(),
+            s0: 0.0,
+            s_prev: [0.0; 2],
+            r: std::collections::VecDeque::new(),
+            r_base: 0,
+            n: 0,
+            next: 1,
         }
     }
-    if *out.last().expect("non-empty") != n - 1 {
-        out.push(n - 1);
+
+    /// Lag in samples between a sample's arrival and its boundary decision.
+    pub fn lag(&self) -> usize {
+        self.w + 1
     }
-    out
+
+    /// Samples received so far.
+    pub fn received(&self) -> usize {
+        self.n
+    }
+
+    /// Feeds the arc length of the next signature sample; returns the
+    /// boundary it finalises, if any (sample 0 is always one).
+    pub fn push(&mut self, s: f64) -> Option<usize> {
+        let n = self.n;
+        self.n += 1;
+        if n == 0 {
+            self.s0 = s;
+            self.s_prev = [s, s];
+            return Some(0);
+        }
+        // r of sample n-1: one-sided at the start, central after.
+        let (lo_s, lo, hi) = if n == 1 {
+            (self.s_prev[1], n - 1, n)
+        } else {
+            (self.s_prev[0], n - 2, n)
+        };
+        self.push_r((s - lo_s) / (hi - lo) as f64, s);
+        self.s_prev = [self.s_prev[1], s];
+        // Sample j = n-1-w now has its whole window.
+        let j = (n - 1).checked_sub(self.w)?;
+        if j < self.next || j == 0 {
+            return None;
+        }
+        self.next = j + 1;
+        self.test(j, n - 1).then_some(j)
+    }
+
+    /// The boundaries still owed at the end of the signature, its last
+    /// sample included.
+    pub fn flush(&mut self) -> Vec<usize> {
+        let n = self.n;
+        if n == 0 {
+            return vec![];
+        }
+        if n == 1 {
+            return vec![0];
+        }
+        // r of the last sample, one-sided.
+        let ds = self.s_prev[1] - self.s_prev[0];
+        self.push_r(ds, self.s_prev[1]);
+        let mut out = Vec::new();
+        if n >= 3 {
+            while self.next + 1 < n {
+                let j = self.next;
+                self.next += 1;
+                if self.test(j, n - 1) {
+                    out.push(j);
+                }
+            }
+        }
+        out.push(n - 1);
+        out
+    }
+
+    /// Appends `r = ln(ds)` (floored so that a stop in `s` cannot give
+    /// `-inf`; the floor follows the arc length so far).
+    fn push_r(&mut self, ds: f64, s: f64) {
+        let floor = ((s - self.s0) * 1e-12).max(f64::MIN_POSITIVE);
+        self.r.push_back(ds.max(floor).ln());
+        while self.r.len() > 2 * self.w + 2 {
+            self.r.pop_front();
+            self.r_base += 1;
+        }
+    }
+
+    /// Is sample `j` the prominent extremum of `r` over `[j-w, min(j+w, last)]`?
+    fn test(&self, j: usize, last: usize) -> bool {
+        let lo = j.saturating_sub(self.w);
+        let hi = (j + self.w).min(last);
+        let r = |i: usize| self.r[i - self.r_base];
+        let v = r(j);
+        let left = (lo..j).map(r);
+        let right = (j + 1..=hi).map(r);
+        let is_max = left.clone().all(|x| x < v) && right.clone().all(|x| x <= v);
+        let is_min = left.clone().all(|x| x > v) && right.clone().all(|x| x >= v);
+        if is_max {
+            let lmin = left.fold(f64::INFINITY, f64::min);
+            let rmin = right.fold(f64::INFINITY, f64::min);
+            v - lmin >= self.p && v - rmin >= self.p
+        } else if is_min {
+            let lmax = left.fold(f64::NEG_INFINITY, f64::max);
+            let rmax = right.fold(f64::NEG_INFINITY, f64::max);
+            lmax - v >= self.p && rmax - v >= self.p
+        } else {
+            false
+        }
+    }
 }
 
 /// The clothoid pieces between boundaries, each fitted with curvature linear
@@ -84,42 +211,4 @@ pub fn segments(sig: &Signature, bounds: &[usize]) -> Vec<Segment> {
             s: [sig.s[b[0]], sig.s[b[1]]],
         })
         .collect()
-}
-
-/// `ln(ds/dK)` per sample by central differences (floored so that a stop in
-/// `s` cannot give `-inf`).
-pub fn log_radius(sig: &Signature) -> Vec<f64> {
-    let n = sig.len();
-    let span = sig.s.last().copied().unwrap_or(0.0) - sig.s.first().copied().unwrap_or(0.0);
-    let floor = (span * 1e-12).max(f64::MIN_POSITIVE);
-    (0..n)
-        .map(|j| {
-            let (lo, hi) = (j.saturating_sub(1), (j + 1).min(n - 1));
-            let ds = (sig.s[hi] - sig.s[lo]) / (hi - lo).max(1) as f64;
-            ds.max(floor).ln()
-        })
-        .collect()
-}
-
-/// True when `r[j]` is the first strict extremum within `±w` samples and
-/// stands out by `p` from the opposite extremes on both sides.
-fn is_extremum(r: &[f64], j: usize, w: usize, p: f64) -> bool {
-    let lo = j.saturating_sub(w);
-    let hi = (j + w).min(r.len() - 1);
-    let v = r[j];
-    let left = &r[lo..j];
-    let right = &r[j + 1..=hi];
-    let is_max = left.iter().all(|&x| x < v) && right.iter().all(|&x| x <= v);
-    let is_min = left.iter().all(|&x| x > v) && right.iter().all(|&x| x >= v);
-    if is_max {
-        let lmin = left.iter().copied().fold(f64::INFINITY, f64::min);
-        let rmin = right.iter().copied().fold(f64::INFINITY, f64::min);
-        v - lmin >= p && v - rmin >= p
-    } else if is_min {
-        let lmax = left.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let rmax = right.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        lmax - v >= p && rmax - v >= p
-    } else {
-        false
-    }
 }

@@ -42,41 +42,148 @@ pub struct Signature {
     pub grid: Vec<f64>,
 }
 
-impl Signature {
-    /// Resamples the track's curvature on a uniform `K` grid.
-    pub fn build(track: &Track, config: &SignatureConfig) -> Signature {
-        let k = dead_band_turning(&track.heading, config.dead_band);
-        let mut sig = Signature {
+/// One signature sample: compressed curvature, arc length and fractional
+/// track grid index at a multiple of `dk` of turning.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SigPoint {
+    /// `sign(κ) |κ|^½`.
+    pub value: f64,
+    /// Arc length.
+    pub s: f64,
+    /// Fractional track grid index.
+    pub grid: f64,
+}
+
+/// The last track sample the resampler saw.
+#[derive(Debug, Clone, Copy)]
+struct Seen {
+    cumulative: f64,
+    s: f64,
+    curvature: f64,
+}
+
+/// The signature one track sample at a time: the dead-band play operator
+/// and the resampling at uniform `K`. A sample at `K = j dk` is final as
+/// soon as a track sample with `K >= j dk` has arrived (lag: one sample).
+#[derive(Debug, Clone)]
+pub struct SignatureStream {
+    dk: f64,
+    play: PlayOperator,
+    /// Next `K` sample index.
+    next: usize,
+    /// Track samples seen.
+    n: usize,
+    last: Option<Seen>,
+}
+
+impl SignatureStream {
+    /// A stream with these settings.
+    pub fn new(config: &SignatureConfig) -> Self {
+        SignatureStream {
             dk: config.dk,
-            ..Signature::default()
+            play: PlayOperator::new(config.dead_band),
+            next: 0,
+            n: 0,
+            last: None,
+        }
+    }
+
+    /// Signature samples emitted so far.
+    pub fn emitted(&self) -> usize {
+        self.next
+    }
+
+    /// Turning `K` so far (radians).
+    pub fn turning(&self) -> f64 {
+        self.play.total
+    }
+
+    /// Feeds the next track sample (its heading, curvature and arc length)
+    /// and emits every `K` sample it completes.
+    pub fn push(&mut self, heading: f64, curvature: f64, s: f64, out: &mut impl FnMut(SigPoint)) {
+        let (cumulative, dir) = self.play.push(heading);
+        let n = self.n;
+        self.n += 1;
+        let here = Seen {
+            cumulative,
+            s,
+            curvature,
         };
-        let total = *k.cumulative.last().unwrap_or(&0.0);
-        let steps = (total / config.dk).floor() as usize;
-        let mut i = 0;
-        for j in 0..=steps {
-            let target = j as f64 * config.dk;
-            while i + 1 < k.cumulative.len() && k.cumulative[i + 1] < target {
-                i += 1;
-            }
-            // Fractional grid index where K crosses `target`.
-            let at = if i + 1 < k.cumulative.len() {
-                let (k0, k1) = (k.cumulative[i], k.cumulative[i + 1]);
+        if let Some(prev) = self.last {
+            loop {
+                let target = self.next as f64 * self.dk;
+                if !(target <= cumulative) {
+                    break;
+                }
+                // Crossing between samples n-1 and n, exactly as a whole-array
+                // linear interpolation at the fractional index would do it.
+                let (k0, k1) = (prev.cumulative, cumulative);
                 let f = if k1 > k0 {
                     ((target - k0) / (k1 - k0)).clamp(0.0, 1.0)
                 } else {
                     0.0
                 };
-                i as f64 + f
-            } else {
-                i as f64
-            };
-            let dir = k.direction[(i + 1).min(k.direction.len() - 1)];
-            let kappa = Track::interp(&track.curvature, at).abs();
-            sig.value.push(dir * kappa.sqrt());
-            sig.s.push(Track::interp(&track.s, at));
-            sig.grid.push(at);
+                let at = (n - 1) as f64 + f;
+                let lerp = |a: f64, b: f64| {
+                    if at >= n as f64 {
+                        b
+                    } else {
+                        let g = at - (n - 1) as f64;
+                        a * (1.0 - g) + b * g
+                    }
+                };
+                let kappa = lerp(prev.curvature, curvature).abs();
+                out(SigPoint {
+                    value: dir * kappa.sqrt(),
+                    s: lerp(prev.s, s),
+                    grid: at,
+                });
+                self.next += 1;
+            }
         }
+        self.last = Some(here);
+    }
+
+    /// Emits the samples the end of the path still owes (`K` up to the
+    /// total, placed at the last track sample).
+    pub fn flush(&mut self, out: &mut impl FnMut(SigPoint)) {
+        let Some(last) = self.last else {
+            return;
+        };
+        let steps = (last.cumulative / self.dk).floor() as usize;
+        while self.next <= steps {
+            out(SigPoint {
+                value: self.play.dir * last.curvature.abs().sqrt(),
+                s: last.s,
+                grid: (self.n - 1) as f64,
+            });
+            self.next += 1;
+        }
+    }
+}
+
+impl Signature {
+    /// Resamples the track's curvature on a uniform `K` grid (the
+    /// [`SignatureStream`] fed the whole track).
+    pub fn build(track: &Track, config: &SignatureConfig) -> Signature {
+        let mut sig = Signature {
+            dk: config.dk,
+            ..Signature::default()
+        };
+        let mut stream = SignatureStream::new(config);
+        let mut sink = |p: SigPoint| sig.push(p);
+        for i in 0..track.len() {
+            stream.push(track.heading[i], track.curvature[i], track.s[i], &mut sink);
+        }
+        stream.flush(&mut sink);
         sig
+    }
+
+    /// Appends one sample.
+    pub fn push(&mut self, p: SigPoint) {
+        self.value.push(p.value);
+        self.s.push(p.s);
+        self.grid.push(p.grid);
     }
 
     /// Number of samples.
@@ -107,29 +214,53 @@ pub struct DeadBandTurning {
 /// Play operator: the output follows the heading only when the heading
 /// leaves a band of width `band` around it; `K` is its total variation.
 pub fn dead_band_turning(heading: &[f64], band: f64) -> DeadBandTurning {
-    let half = band / 2.0;
+    let mut play = PlayOperator::new(band);
     let mut cumulative = Vec::with_capacity(heading.len());
     let mut direction = Vec::with_capacity(heading.len());
-    let Some(&first) = heading.first() else {
-        return DeadBandTurning {
-            cumulative,
-            direction,
-        };
-    };
-    let (mut y, mut acc, mut dir) = (first, 0.0, 1.0);
     for &theta in heading {
-        let next = y.clamp(theta - half, theta + half);
-        let d = next - y;
-        if d != 0.0 {
-            dir = d.signum();
-        }
-        acc += d.abs();
-        y = next;
-        cumulative.push(acc);
-        direction.push(dir);
+        let (k, d) = play.push(theta);
+        cumulative.push(k);
+        direction.push(d);
     }
     DeadBandTurning {
         cumulative,
         direction,
+    }
+}
+
+/// The play (backlash) operator of half-width `band / 2` on the heading,
+/// with its total variation `K` and the direction of its last move.
+#[derive(Debug, Clone, Copy)]
+pub struct PlayOperator {
+    half: f64,
+    y: Option<f64>,
+    /// Total variation so far (radians).
+    pub total: f64,
+    /// Direction of the last move (+1 left, -1 right; +1 before any move).
+    pub dir: f64,
+}
+
+impl PlayOperator {
+    /// A play operator with band width `band`, starting at the first input.
+    pub fn new(band: f64) -> Self {
+        PlayOperator {
+            half: band / 2.0,
+            y: None,
+            total: 0.0,
+            dir: 1.0,
+        }
+    }
+
+    /// Feeds one heading: cumulative `K` and the current direction.
+    pub fn push(&mut self, theta: f64) -> (f64, f64) {
+        let y = *self.y.get_or_insert(theta);
+        let next = y.clamp(theta - self.half, theta + self.half);
+        let d = next - y;
+        if d != 0.0 {
+            self.dir = d.signum();
+        }
+        self.total += d.abs();
+        self.y = Some(next);
+        (self.total, self.dir)
     }
 }

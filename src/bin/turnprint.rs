@@ -82,6 +82,20 @@ enum Command {
         #[arg(long)]
         format_b: Option<Format>,
     },
+    /// Replays A one pose at a time through the online detector (JSON Lines).
+    Stream {
+        /// The path.
+        a: PathBuf,
+        /// JSON Lines on stdout (the only output form).
+        #[arg(long)]
+        json: bool,
+        /// Candidates per finalised segment.
+        #[arg(long, default_value_t = 3)]
+        top: usize,
+        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv).
+        #[arg(long, default_value = "auto")]
+        format: Format,
+    },
 }
 
 fn main() -> ExitCode {
@@ -117,6 +131,12 @@ fn main() -> ExitCode {
             format,
             format_b.unwrap_or(format),
         ),
+        Command::Stream {
+            a,
+            json: _,
+            top,
+            format,
+        } => run_stream(&a, top, format),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -317,4 +337,14 @@ fn print_table(hypotheses: &[Hypothesis], a_name: &str, b_name: &str) {
             h.turning.to_degrees()
         );
     }
+}
+
+fn run_stream(a: &Path, top: usize, format: Format) -> Result<(), String> {
+    let config = turnprint::online::OnlineConfig {
+        top_k: top,
+        ..Default::default()
+    };
+    let mut out = std::io::stdout().lock();
+    turnprint::online::cli::stream(a, format, &config, &mut out).map_err(|e| e.to_string())?;
+    Ok(())
 }

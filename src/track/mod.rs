@@ -8,11 +8,13 @@
 
 pub mod chord;
 pub mod smooth;
+pub mod stream;
 
 use nalgebra::Vector2;
 
-pub use chord::ChordParam;
+pub use chord::{ChordParam, ChordStream};
 pub use smooth::Smoother;
+pub use stream::{DiffStream, GridPoint, GridStream, TrackPoint};
 
 /// Smoothed curve sampled uniformly in the chord parameter `u`.
 #[derive(Debug, Clone)]
@@ -51,20 +53,36 @@ impl Track {
         let total = chord.total();
         let m = ((total / step).ceil() as usize).max(2) + 1;
         let step = total / (m - 1) as f64;
-        let us: Vec<f64> = (0..m).map(|i| i as f64 * step).collect();
-        let xy = smoother.eval_grid(chord, &us);
-        let pose = us.iter().map(|&u| chord.pose_at(u)).collect();
-        let (s, heading, curvature) = differentiate(&xy);
-        Track {
-            xy,
-            s,
-            heading,
-            curvature,
-            pose,
+        // The same streams the online detector runs, fed the whole path.
+        let mut grid = GridStream::new(*smoother, step);
+        let mut diff = DiffStream::new();
+        let mut track = Track {
+            xy: Vec::with_capacity(m),
+            s: Vec::with_capacity(m),
+            heading: Vec::with_capacity(m),
+            curvature: Vec::with_capacity(m),
+            pose: Vec::with_capacity(m),
             step,
             pose_u: chord.pose_u.clone(),
             bandwidth: smoother.bandwidth,
+        };
+        let mut sink = |p: TrackPoint| track.push(p);
+        let mut feed = |g: GridPoint| diff.push(g, &mut sink);
+        for k in 0..chord.u.len() {
+            grid.push(chord.u[k], chord.points[k], chord.index[k], &mut feed);
         }
+        grid.flush(m, &mut feed);
+        diff.flush(&mut sink);
+        track
+    }
+
+    /// Appends one final track sample.
+    pub fn push(&mut self, p: TrackPoint) {
+        self.xy.push(p.xy);
+        self.s.push(p.s);
+        self.heading.push(p.heading);
+        self.curvature.push(p.curvature);
+        self.pose.push(p.pose);
     }
 
     /// Number of grid samples.
@@ -118,30 +136,25 @@ impl Track {
 }
 
 /// Arc length, unwrapped heading and curvature of a densely sampled curve
-/// by central differences: `kappa = d(theta)/ds`.
+/// by central differences: `kappa = d(theta)/ds` (the [`DiffStream`] fed
+/// the whole curve).
 pub fn differentiate(xy: &[Vector2<f64>]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let m = xy.len();
-    let mut s = vec![0.0; m];
-    for i in 1..m {
-        s[i] = s[i - 1] + (xy[i] - xy[i - 1]).norm();
-    }
-    let mut heading = vec![0.0; m];
-    for i in 0..m {
-        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(m - 1));
-        let d = xy[hi] - xy[lo];
-        heading[i] = d.y.atan2(d.x);
-    }
-    unwrap(&mut heading);
-    let mut curvature = vec![0.0; m];
-    for i in 0..m {
-        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(m - 1));
-        let ds = s[hi] - s[lo];
-        curvature[i] = if ds > 0.0 {
-            (heading[hi] - heading[lo]) / ds
-        } else {
-            0.0
+    let mut diff = DiffStream::new();
+    let (mut s, mut heading, mut curvature) = (Vec::new(), Vec::new(), Vec::new());
+    let mut sink = |p: TrackPoint| {
+        s.push(p.s);
+        heading.push(p.heading);
+        curvature.push(p.curvature);
+    };
+    for (i, p) in xy.iter().enumerate() {
+        let g = GridPoint {
+            u: i as f64,
+            xy: *p,
+            pose: i as f64,
         };
+        diff.push(g, &mut sink);
     }
+    diff.flush(&mut sink);
     (s, heading, curvature)
 }
 

@@ -57,39 +57,60 @@ impl Smoother {
         n as f64 * rss / (dof * dof)
     }
 
-    /// Smoothed positions at increasing parameters `us`.
-    pub fn eval_grid(&self, chord: &ChordParam, us: &[f64]) -> Vec<Vector2<f64>> {
-        let mut lo = 0;
-        us.iter().map(|&u| self.at(chord, u, &mut lo).0).collect()
-    }
-
     /// Smoothed position at `u` and the normalised weight of the nearest
     /// kept pose when `u` is exactly a kept pose's parameter (for the trace).
     /// `lo` is a cursor for monotone queries.
     fn at(&self, chord: &ChordParam, u: f64, lo: &mut usize) -> (Vector2<f64>, f64) {
-        let h = self.bandwidth;
-        let reach = CUTOFF * h;
+        let reach = CUTOFF * self.bandwidth;
         while *lo < chord.u.len() && chord.u[*lo] < u - reach {
             *lo += 1;
         }
+        let window = chord.u[*lo..].iter().copied().zip(chord.points[*lo..].iter().copied());
+        match self.kernel(window, u) {
+            Some(fit) => fit,
+            None => {
+                // Beyond the kernel reach of every pose: nearest pose.
+                let k = chord.u.partition_point(|&x| x < u).min(chord.u.len() - 1);
+                (chord.points[k], 1.0)
+            }
+        }
+    }
+
+    /// How far the kernel reaches (units of `u`): points further than this
+    /// from `u` carry no weight, so a grid sample is final once a point
+    /// beyond `u + reach()` has arrived.
+    pub fn reach(&self) -> f64 {
+        CUTOFF * self.bandwidth
+    }
+
+    /// The kernel-weighted mean at `u` of `(u_j, p_j)` pairs in increasing
+    /// `u_j`, starting at the first within reach (the sum stops at the first
+    /// beyond it), and the normalised self weight. `None` when no point is
+    /// within reach. One implementation for batch and stream.
+    pub fn kernel(
+        &self,
+        window: impl Iterator<Item = (f64, Vector2<f64>)>,
+        u: f64,
+    ) -> Option<(Vector2<f64>, f64)> {
+        let h = self.bandwidth;
+        let reach = CUTOFF * h;
         let inv = 1.0 / (2.0 * h * h);
         let (mut acc, mut w_sum, mut w_self) = (Vector2::zeros(), 0.0, 0.0);
-        let mut j = *lo;
-        while j < chord.u.len() && chord.u[j] <= u + reach {
-            let d = chord.u[j] - u;
+        for (uj, pj) in window {
+            if uj > u + reach {
+                break;
+            }
+            if uj < u - reach {
+                continue;
+            }
+            let d = uj - u;
             let w = (-d * d * inv).exp();
-            acc += w * chord.points[j];
+            acc += w * pj;
             w_sum += w;
             if d == 0.0 {
                 w_self = w;
             }
-            j += 1;
         }
-        if w_sum <= 0.0 {
-            // Beyond the kernel reach of every pose: nearest pose.
-            let k = chord.u.partition_point(|&x| x < u).min(chord.u.len() - 1);
-            return (chord.points[k], 1.0);
-        }
-        (acc / w_sum, w_self / w_sum)
+        (w_sum > 0.0).then(|| (acc / w_sum, w_self / w_sum))
     }
 }

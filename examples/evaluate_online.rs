@@ -1,0 +1,229 @@
+//! Streams KITTI paths through the online detector and scores the
+//! candidates against ground truth (EVALUATION_ONLINE.md).
+//!
+//! Revisit: a pose within 8 m of a ground-truth pose at least 300 frames
+//! earlier. Event: a run of revisit poses spanning at least 40 m of driving
+//! (gaps under 20 frames bridged). A candidate is correct when the median
+//! ground-truth distance from its query poses to the nearest pose of its
+//! match range is at most 10 m. An event is detected when a correct
+//! candidate whose query range overlaps the event arrives while the event
+//! runs or within 40 m after it; the delay is the distance driven inside the
+//! event before that candidate's `at_pose`.
+//!
+//! Usage: `cargo run --release --example evaluate_online -- [gt|orb|drift] [SEQ...]`
+//! (data from ../shared/data). `gt` streams the ground truth, `orb` the
+//! monocular ORB-SLAM2 estimate (paired to GT frames by timestamp), `drift`
+//! the ground truth with added drift (heading random walk and scale drift).
+
+use std::path::Path;
+
+use nalgebra::{Rotation3, Vector3};
+use turnprint::io::{read_trajectory, Format};
+use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
+
+const DATA: &str = "/work/shared/data";
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mode = args.first().cloned().unwrap_or_else(|| "gt".into());
+    let seqs: Vec<String> = if args.len() > 1 {
+        args[1..].to_vec()
+    } else {
+        ["00", "02", "05", "06", "08"].iter().map(|s| s.to_string()).collect()
+    };
+    println!("mode {mode}");
+    let show_events = std::env::var("SCORES").is_ok();
+    println!("seq  poses events detected  rate  delay_med_m delay_p90_m  cands correct share  push_p50_us push_p99_us  wall_s");
+    let (mut ev_all, mut det_all, mut c_all, mut ok_all) = (0, 0, 0, 0);
+    let mut delays_all = Vec::new();
+    for seq in &seqs {
+        let gt = read_trajectory(Path::new(&format!("{DATA}/kitti_gt/{seq}.txt")), Format::Kitti).expect("gt");
+        let gt_xyz: Vec<Vector3<f64>> = gt.positions();
+        // Input poses and the GT frame of each.
+        let (input, frames): (Vec<Vector3<f64>>, Vec<usize>) = match mode.as_str() {
+            "orb" => orb_paired(seq, gt_xyz.len()),
+            "drift" => (drifted(&gt_xyz), (0..gt_xyz.len()).collect()),
+            _ => (gt_xyz.clone(), (0..gt_xyz.len()).collect()),
+        };
+        let mut config = OnlineConfig::default();
+        if let Ok(v) = std::env::var("MIN_SCORE") {
+            config.min_score = v.parse().expect("MIN_SCORE");
+        }
+        let mut det = Detector::new(config, Overflow::Block);
+        let mut cands: Vec<CandidateEvent> = Vec::new();
+        let mut lat = Vec::with_capacity(input.len());
+        let t0 = std::time::Instant::now();
+        for p in &input {
+            let s = std::time::Instant::now();
+            det.push(&PoseInput::at(*p));
+            lat.push(s.elapsed().as_nanos() as f64 / 1000.0);
+            cands.extend(det.poll());
+        }
+        let (rest, _summary) = det.finish();
+        cands.extend(rest);
+        let wall = t0.elapsed().as_secs_f64();
+        lat.sort_by(f64::total_cmp);
+        // Ground truth in input index space.
+        let g: Vec<Vector3<f64>> = frames.iter().map(|&f| gt_xyz[f]).collect();
+        let arc = arc_length(&g);
+        let events = revisit_events(&g, &frames, &arc);
+        if show_events {
+            eprintln!("events {seq} {events:?}");
+        }
+        let correct: Vec<bool> = cands.iter().map(|c| is_correct(c, &g)).collect();
+        let mut delays = Vec::new();
+        let mut detected = 0;
+        for &(e0, e1) in &events {
+            let end_arc = arc[e1] + 40.0;
+            let first = cands
+                .iter()
+                .zip(&correct)
+                .filter(|(c, ok)| {
+                    **ok && c.hypothesis.a_range[0] <= e1 && c.hypothesis.a_range[1] >= e0 && c.at_pose >= e0 && arc[c.at_pose.min(arc.len() - 1)] <= end_arc
+                })
+                .map(|(c, _)| c.at_pose)
+                .min();
+            if let Some(at) = first {
+                detected += 1;
+                delays.push((arc[at.min(e1)] - arc[e0]).max(0.0));
+            }
+        }
+        let ok = correct.iter().filter(|&&b| b).count();
+        if std::env::var("SCORES").is_ok() {
+            for (c, ok) in cands.iter().zip(&correct) {
+                eprintln!("score {seq} {} {:.4} {} {} at {} q {:?} m {:?}", ok, c.hypothesis.score, c.proximity, c.hypothesis.reversed, c.at_pose, c.hypothesis.a_range, c.hypothesis.b_range);
+            }
+        }
+        delays.sort_by(f64::total_cmp);
+        let q = |v: &[f64], f: f64| if v.is_empty() { f64::NAN } else { v[((v.len() - 1) as f64 * f).round() as usize] };
+        println!(
+            "{seq}  {:5} {:6} {:8} {:5.2} {:11.1} {:11.1} {:6} {:7} {:5.2} {:11.2} {:11.2} {:7.2}",
+            input.len(),
+            events.len(),
+            detected,
+            detected as f64 / events.len().max(1) as f64,
+            q(&delays, 0.5),
+            q(&delays, 0.9),
+            cands.len(),
+            ok,
+            ok as f64 / cands.len().max(1) as f64,
+            q(&lat, 0.5),
+            q(&lat, 0.99),
+            wall
+        );
+        ev_all += events.len();
+        det_all += detected;
+        c_all += cands.len();
+        ok_all += ok;
+        delays_all.extend(delays);
+    }
+    delays_all.sort_by(f64::total_cmp);
+    let q = |v: &[f64], f: f64| if v.is_empty() { f64::NAN } else { v[((v.len() - 1) as f64 * f).round() as usize] };
+    println!(
+        "all  events {ev_all} detected {det_all} rate {:.3} delay median {:.1} m p90 {:.1} m candidates {c_all} correct {ok_all} share {:.3}",
+        det_all as f64 / ev_all.max(1) as f64,
+        q(&delays_all, 0.5),
+        q(&delays_all, 0.9),
+        ok_all as f64 / c_all.max(1) as f64
+    );
+}
+
+fn arc_length(g: &[Vector3<f64>]) -> Vec<f64> {
+    let mut arc = vec![0.0; g.len()];
+    for i in 1..g.len() {
+        arc[i] = arc[i - 1] + (g[i] - g[i - 1]).norm();
+    }
+    arc
+}
+
+/// Runs of revisit poses spanning at least 40 m (gaps under 20 poses joined).
+fn revisit_events(g: &[Vector3<f64>], frames: &[usize], arc: &[f64]) -> Vec<(usize, usize)> {
+    let n = g.len();
+    let revisit: Vec<bool> = (0..n)
+        .map(|i| (0..n).any(|j| frames[j] + 300 <= frames[i] && (g[i] - g[j]).norm() <= 8.0))
+        .collect();
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut i = 0;
+    while i < n {
+        if !revisit[i] {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        let mut end = i;
+        let mut j = i + 1;
+        while j < n && j <= end + 20 {
+            if revisit[j] {
+                end = j;
+            }
+            j += 1;
+        }
+        runs.push((start, end));
+        i = end + 1;
+    }
+    runs.into_iter().filter(|&(a, b)| arc[b] - arc[a] >= 40.0).collect()
+}
+
+/// Median GT distance from the query poses to the nearest match pose ≤ 10 m.
+fn is_correct(c: &CandidateEvent, g: &[Vector3<f64>]) -> bool {
+    let h = &c.hypothesis;
+    let clamp = |i: usize| i.min(g.len() - 1);
+    let (q0, q1) = (clamp(h.a_range[0]), clamp(h.a_range[1]));
+    let (m0, m1) = (clamp(h.b_range[0]), clamp(h.b_range[1]));
+    let step = ((q1 - q0) / 50).max(1);
+    let mut d: Vec<f64> = (q0..=q1)
+        .step_by(step)
+        .map(|i| (m0..=m1).map(|j| (g[i] - g[j]).norm()).fold(f64::INFINITY, f64::min))
+        .collect();
+    d.sort_by(f64::total_cmp);
+    !d.is_empty() && d[d.len() / 2] <= 10.0
+}
+
+/// ORB-SLAM2 estimate paired to GT frames by timestamp.
+fn orb_paired(seq: &str, n_gt: usize) -> (Vec<Vector3<f64>>, Vec<usize>) {
+    let orb = read_trajectory(Path::new(&format!("{DATA}/kitti_orbslam2_vio/{seq}_orbslam2_tum.txt")), Format::Tum).expect("orb");
+    let times: Vec<f64> = std::fs::read_to_string(format!("{DATA}/kitti_gt/{seq}_times.txt"))
+        .expect("times")
+        .split_whitespace()
+        .filter_map(|s| s.parse().ok())
+        .collect();
+    let mut input = Vec::new();
+    let mut frames = Vec::new();
+    for p in &orb.poses {
+        let Some(t) = p.t else { continue };
+        let k = times.partition_point(|&x| x < t);
+        let best = [k.saturating_sub(1), k.min(times.len() - 1)]
+            .into_iter()
+            .min_by(|&a, &b| (times[a] - t).abs().total_cmp(&(times[b] - t).abs()))
+            .unwrap();
+        if (times[best] - t).abs() < 0.05 && best < n_gt {
+            input.push(p.position);
+            frames.push(best);
+        }
+    }
+    (input, frames)
+}
+
+/// Ground truth with strong drift: heading random walk (deterministic
+/// pseudo-random, 0.5°/√100 m), scale drift 2 %/km, applied along the path.
+fn drifted(g: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+    let mut out = Vec::with_capacity(g.len());
+    let mut state: u64 = 0x5eed;
+    let mut yaw = 0.0f64;
+    let mut scale = 1.0f64;
+    let mut p = g[0];
+    out.push(p);
+    for i in 1..g.len() {
+        let d = g[i] - g[i - 1];
+        let len = d.norm();
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let u = ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0;
+        yaw += u * 0.5f64.to_radians() * (len / 100.0).sqrt() * 1.7;
+        scale *= 1.0 + 0.02 * len / 1000.0;
+        // KITTI camera frame: y is down, the road is the x-z plane.
+        let r = Rotation3::from_axis_angle(&Vector3::y_axis(), yaw);
+        p += scale * (r * d);
+        out.push(p);
+    }
+    out
+}

@@ -1,0 +1,72 @@
+//! Settings of the online detector. Like the batch settings, every
+//! tolerance is in radians, ratios, counts or multiples of the typical pose
+//! spacing measured during warm-up: none is in metres.
+
+use crate::pipeline::Config;
+
+/// How much of the query's own neighbourhood a match must stay clear of.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Exclusion {
+    /// Turning (radians of `K`) between the match and the query.
+    Turning(f64),
+    /// Whole segments between the match and the query.
+    Segments(usize),
+}
+
+/// Settings of [`super::Detector`].
+#[derive(Debug, Clone)]
+pub struct OnlineConfig {
+    /// The batch stages' settings (signature, segments, queries, alignment,
+    /// score, drift prior). Defaults to [`Config::for_loops`].
+    pub pipeline: Config,
+    /// Poses buffered before the plane, the stationary threshold, the grid
+    /// step and the smoothing bandwidth are chosen (GCV on this prefix).
+    pub warmup_min_poses: usize,
+    /// The warm-up also waits until the prefix spans a plane (second
+    /// eigenvalue of its scatter at least `plane_ratio` times the third), up
+    /// to this many poses.
+    pub warmup_max_poses: usize,
+    /// See `warmup_max_poses`.
+    pub plane_ratio: f64,
+    /// The query's own neighbourhood.
+    pub exclusion: Exclusion,
+    /// Candidates emitted per finalised segment.
+    pub top_k: usize,
+    /// Lowest score emitted.
+    pub min_score: f64,
+    /// Shape candidates verified per finalised segment (strongest first).
+    pub max_verify: usize,
+    /// Also search near the current position in the map's own frame.
+    pub proximity: bool,
+    /// Between segments, probe the proximity every this many new track
+    /// samples (half typical steps), over the newest twice as many.
+    pub probe_every: usize,
+    /// Messages the worker's queue holds before the caller starts merging
+    /// (see [`super::worker`] for the overflow policy).
+    pub queue_capacity: usize,
+    /// A step longer than this many typical steps is a jump (GPS glitch,
+    /// VO failure) and goes through the jump filter.
+    pub jump_factor: f64,
+    /// Signature samples per block of the history correlator.
+    pub block_len: usize,
+}
+
+impl Default for OnlineConfig {
+    fn default() -> Self {
+        OnlineConfig {
+            pipeline: Config::for_loops(),
+            warmup_min_poses: 200,
+            warmup_max_poses: 3000,
+            plane_ratio: 25.0,
+            exclusion: Exclusion::Turning(std::f64::consts::FRAC_PI_2),
+            top_k: 3,
+            min_score: 0.3,
+            max_verify: 8,
+            proximity: true,
+            probe_every: 48,
+            queue_capacity: 4,
+            jump_factor: 25.0,
+            block_len: 2048,
+        }
+    }
+}

@@ -1,0 +1,265 @@
+//! The online detector: push one pose at a time, poll candidates.
+//!
+//! ```text
+//! push(pose) ── guards ── frontend streams ── outbox ──(bounded queue)──▶ worker
+//!    O(1) amortised, never waits (MergeLatest)             history, search, verify
+//! poll() ◀────────────────────────── candidates ◀──────────────────────────┘
+//! ```
+
+use std::time::Instant;
+
+use crossbeam::channel::{bounded, unbounded, Receiver, Sender, TrySendError};
+use nalgebra::{UnitQuaternion, Vector3};
+use serde::Serialize;
+
+use super::events::CandidateEvent;
+use super::frontend::{Frontend, Outbox, TrackParams};
+use super::guard::{GuardCounts, Rejection, TimeGuard};
+use super::search::Frame;
+use super::worker::{spawn, Message, Overflow, WorkerStats};
+use super::OnlineConfig;
+
+/// One pose as odometry delivers it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseInput {
+    /// Timestamp (seconds), if any: must increase.
+    pub t: Option<f64>,
+    /// Position.
+    pub position: Vector3<f64>,
+    /// Orientation, if any (carried for the caller; the method uses positions).
+    pub orientation: Option<UnitQuaternion<f64>>,
+    /// Keyframe id of this pose, if it is one.
+    pub keyframe: Option<u64>,
+}
+
+impl PoseInput {
+    /// A pose with a position only.
+    pub fn at(position: Vector3<f64>) -> Self {
+        PoseInput {
+            t: None,
+            position,
+            orientation: None,
+            keyframe: None,
+        }
+    }
+}
+
+/// What happened to one pushed pose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pushed {
+    /// Taken (its index).
+    Accepted(usize),
+    /// Dropped by a guard (its index and why).
+    Rejected(usize, Rejection),
+}
+
+/// Counts and timing of a run.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Summary {
+    /// Poses pushed.
+    pub poses: u64,
+    /// Poses accepted.
+    pub accepted: u64,
+    /// What the guards did.
+    pub guards: GuardCounts,
+    /// Messages handed to the worker.
+    pub messages: u64,
+    /// Sends deferred because the queue was full.
+    pub deferred: u64,
+    /// What the worker did.
+    pub worker: WorkerStats,
+    /// Wall time from the first push to the end of `finish` (seconds).
+    pub wall_s: f64,
+    /// Time spent inside `push` on the caller's thread (seconds).
+    pub push_s: f64,
+}
+
+/// The online loop-closure detector.
+pub struct Detector {
+    config: OnlineConfig,
+    overflow: Overflow,
+    guard: TimeGuard,
+    front: Frontend,
+    outbox: Outbox,
+    poses: usize,
+    summary: Summary,
+    started: Option<Instant>,
+    tx: Option<Sender<Message>>,
+    events: Receiver<CandidateEvent>,
+    worker: Option<std::thread::JoinHandle<WorkerStats>>,
+    /// Outbox size (track samples) that triggers a hand-over without a new
+    /// boundary: the periodic proximity probe.
+    flush_samples: usize,
+    /// A send was deferred since the last one went through.
+    merging: bool,
+}
+
+
+impl Detector {
+    /// A detector with its worker thread.
+    pub fn new(config: OnlineConfig, overflow: Overflow) -> Detector {
+        let (tx, rx) = bounded(config.queue_capacity.max(1));
+        let (etx, events) = unbounded();
+        let worker = Some(spawn(config.clone(), rx, etx));
+        let flush_samples = if config.proximity { config.probe_every.max(1) } else { 4096 };
+        Detector {
+            front: Frontend::Warmup(Vec::with_capacity(config.warmup_min_poses)),
+            config,
+            overflow,
+            guard: TimeGuard::default(),
+            outbox: Outbox::default(),
+            poses: 0,
+            summary: Summary::default(),
+            started: None,
+            tx: Some(tx),
+            events,
+            worker,
+            flush_samples,
+            merging: false,
+        }
+    }
+
+    /// Starts with given track parameters instead of a warm-up (e.g. the
+    /// batch path's, to compare both).
+    pub fn with_params(config: OnlineConfig, overflow: Overflow, params: TrackParams) -> Detector {
+        let mut d = Detector::new(config, overflow);
+        let (mut counts, mut out) = (GuardCounts::default(), Outbox::default());
+        d.front.start_with(params, &d.config, &mut counts, &mut out, Vec::new());
+        d
+    }
+
+    /// Feeds one pose. Never waits with [`Overflow::MergeLatest`].
+    pub fn push(&mut self, pose: &PoseInput) -> Pushed {
+        let t0 = Instant::now();
+        self.started.get_or_insert(t0);
+        let index = self.poses;
+        self.poses += 1;
+        self.summary.poses += 1;
+        let p = [pose.position.x, pose.position.y, pose.position.z];
+        let result = match self.guard.check(pose.t, &p) {
+            Err(r) => {
+                let g = &mut self.summary.guards;
+                match r {
+                    Rejection::NonFinite => g.non_finite += 1,
+                    Rejection::OutOfOrder => g.out_of_order += 1,
+                    Rejection::Duplicate => g.duplicate += 1,
+                }
+                Pushed::Rejected(index, r)
+            }
+            Ok(()) => {
+                self.summary.accepted += 1;
+                if let Some(k) = pose.keyframe {
+                    self.outbox.keyframes.push((index, k));
+                }
+                self.front.push(index, pose.position, &self.config, &mut self.summary.guards, &mut self.outbox);
+                if !self.outbox.bounds.is_empty() || self.outbox.grid.len() >= self.flush_samples {
+                    self.send();
+                }
+                Pushed::Accepted(index)
+            }
+        };
+        self.summary.push_s += t0.elapsed().as_secs_f64();
+        result
+    }
+
+    fn frame(&self) -> Option<Frame> {
+        let p = self.front.params()?;
+        Some(Frame {
+            plane: p.plane,
+            step: p.grid_step,
+            bandwidth: p.smoother.bandwidth,
+            poses: self.poses,
+        })
+    }
+
+    /// Hands the outbox to the worker (or keeps it, per the overflow policy).
+    fn send(&mut self) {
+        let (Some(frame), Some(tx)) = (self.frame(), self.tx.as_ref()) else {
+            return;
+        };
+        let m = Message {
+            out: std::mem::take(&mut self.outbox),
+            at_pose: self.poses - 1,
+            frame,
+            merged: self.merging,
+        };
+        match self.overflow {
+            Overflow::Block => {
+                if tx.send(m).is_ok() {
+                    self.summary.messages += 1;
+                    self.merging = false;
+                }
+            }
+            Overflow::MergeLatest => match tx.try_send(m) {
+                Ok(()) => {
+                    self.summary.messages += 1;
+                    self.merging = false;
+                }
+                Err(TrySendError::Full(m)) | Err(TrySendError::Disconnected(m)) => {
+                    self.summary.deferred += 1;
+                    self.merging = true;
+                    self.outbox = m.out;
+                }
+            },
+        }
+    }
+
+    /// Candidates that arrived since the last poll.
+    pub fn poll(&self) -> Vec<CandidateEvent> {
+        self.events.try_iter().collect()
+    }
+
+    /// The candidate channel itself (for `select!` or a blocking receive).
+    pub fn events(&self) -> &Receiver<CandidateEvent> {
+        &self.events
+    }
+
+    /// Poses pushed so far.
+    pub fn poses(&self) -> usize {
+        self.poses
+    }
+
+    /// Track parameters in use (after warm-up).
+    pub fn params(&self) -> Option<TrackParams> {
+        self.front.params().copied()
+    }
+
+    /// Ends the stream: finalises the last samples and segments, waits for
+    /// the worker, and returns the remaining candidates and the summary.
+    pub fn finish(mut self) -> (Vec<CandidateEvent>, Summary) {
+        let mut counts = self.summary.guards;
+        if let super::frontend::Frontend::Warmup(_) = self.front {
+            self.front.start(&self.config, &mut counts, &mut self.outbox);
+        }
+        if let super::frontend::Frontend::Running(s) = &mut self.front {
+            s.flush(&mut counts, &mut self.outbox);
+        }
+        self.summary.guards = counts;
+        if !self.outbox.is_empty() {
+            // The last hand-over always waits: nothing may be lost at the end.
+            let overflow = self.overflow;
+            self.overflow = Overflow::Block;
+            self.send();
+            self.overflow = overflow;
+        }
+        self.tx = None;
+        if let Some(w) = self.worker.take() {
+            if let Ok(stats) = w.join() {
+                self.summary.worker = stats;
+            }
+        }
+        if let Some(t0) = self.started {
+            self.summary.wall_s = t0.elapsed().as_secs_f64();
+        }
+        (self.events.try_iter().collect(), self.summary)
+    }
+}
+
+impl Drop for Detector {
+    fn drop(&mut self) {
+        self.tx = None;
+        if let Some(w) = self.worker.take() {
+            let _ = w.join();
+        }
+    }
+}

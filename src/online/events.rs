@@ -1,0 +1,131 @@
+//! What the detector reports, and the ledger that makes sure every
+//! candidate handed to a verifier ends as confirmed, rejected or expired.
+
+use std::collections::HashMap;
+
+use serde_json::{json, Value};
+
+use crate::Hypothesis;
+
+/// A loop-closure candidate produced when a segment was finalised.
+#[derive(Debug, Clone)]
+pub struct CandidateEvent {
+    /// Unique id (increasing).
+    pub id: u64,
+    /// Index of the pose whose arrival finalised the segment.
+    pub at_pose: usize,
+    /// The hypothesis: `a_range` is the query (later) part, `b_range` the
+    /// match; the similarity maps match points onto the query part.
+    pub hypothesis: Hypothesis,
+    /// Found by the proximity probe (nearest earlier position) rather than
+    /// the shape search.
+    pub proximity: bool,
+    /// Keyframe ids inside the query range (at most 8, spread evenly).
+    pub query_keyframes: Vec<u64>,
+    /// Keyframe ids inside the match range (at most 8, spread evenly).
+    pub match_keyframes: Vec<u64>,
+}
+
+impl CandidateEvent {
+    /// The JSON Lines form of `cli.md` (`stream`): a `loops` entry plus
+    /// `event`, `at_pose` and `id`.
+    pub fn to_json(&self) -> Value {
+        let h = self.hypothesis.to_json();
+        json!({
+            "event": "candidate",
+            "at_pose": self.at_pose,
+            "id": self.id,
+            "rank": h.rank,
+            "score": h.score,
+            "zncc": h.zncc,
+            "reversed": h.reversed,
+            "query_range": h.a_range,
+            "match_range": h.b_range,
+            "scale": h.scale,
+            "rotation": h.rotation,
+            "translation": h.translation,
+            "rmse": h.rmse,
+            "turning_deg": h.turning_deg,
+            "source": if self.proximity { "proximity" } else { "shape" },
+            "query_keyframes": self.query_keyframes,
+            "match_keyframes": self.match_keyframes,
+        })
+    }
+}
+
+/// How a candidate handed to a verifier ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// The images agree: relative pose and inlier count.
+    Confirmed {
+        /// Relative pose (row-major 3x4) from the verifier.
+        relative_pose: Vec<f64>,
+        /// Inliers supporting it.
+        inliers: usize,
+    },
+    /// The images disagree.
+    Rejected {
+        /// Why.
+        reason: String,
+    },
+    /// No answer in time, or the verifier went away.
+    Expired {
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Candidates handed out and not yet resolved. Every id ends in exactly
+/// one outcome: resolving twice is refused, and [`Ledger::expire`] ends the
+/// ones older than a deadline.
+#[derive(Debug, Default)]
+pub struct Ledger {
+    open: HashMap<u64, (usize, std::time::Instant)>,
+    /// Outcomes so far: confirmed, rejected, expired.
+    pub counts: [u64; 3],
+}
+
+impl Ledger {
+    /// Records a candidate handed to the verifier.
+    pub fn open(&mut self, c: &CandidateEvent) {
+        self.open.insert(c.id, (c.at_pose, std::time::Instant::now()));
+    }
+
+    /// Records an outcome; false when the id is unknown or already resolved.
+    pub fn resolve(&mut self, id: u64, outcome: &Outcome) -> bool {
+        if self.open.remove(&id).is_none() {
+            return false;
+        }
+        let k = match outcome {
+            Outcome::Confirmed { .. } => 0,
+            Outcome::Rejected { .. } => 1,
+            Outcome::Expired { .. } => 2,
+        };
+        self.counts[k] += 1;
+        true
+    }
+
+    /// Expires every candidate opened before `older_than`; returns their ids.
+    pub fn expire(&mut self, older_than: std::time::Instant, reason: &str) -> Vec<(u64, Outcome)> {
+        let ids: Vec<u64> = self
+            .open
+            .iter()
+            .filter(|(_, (_, t))| *t < older_than)
+            .map(|(id, _)| *id)
+            .collect();
+        ids.into_iter()
+            .map(|id| {
+                let o = Outcome::Expired {
+                    reason: reason.to_string(),
+                };
+                self.resolve(id, &o);
+                (id, o)
+            })
+            .collect()
+    }
+
+    /// Candidates still waiting.
+    pub fn pending(&self) -> usize {
+        self.open.len()
+    }
+}

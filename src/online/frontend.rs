@@ -1,0 +1,248 @@
+//! The caller's side of the detector: every pose goes through the guards and
+//! the incremental stages (plane, chord, smoothing, differentials, signature,
+//! boundaries) and leaves finalised samples in an [`Outbox`] for the worker.
+//!
+//! Parameters the batch path chooses from the whole path are chosen here
+//! from a warm-up prefix: the plane, the stationary threshold, the typical
+//! step (grid step = half of it) and the smoothing bandwidth (GCV on the
+//! prefix, among the same multiples of the typical step). The warm-up poses
+//! are then replayed through the streams, so nothing is lost.
+
+use nalgebra::{Vector2, Vector3};
+
+use super::guard::{GuardCounts, JumpFilter, Passed};
+use super::OnlineConfig;
+use crate::geometry::Plane;
+use crate::segments::BoundaryStream;
+use crate::signature::{SigPoint, SignatureStream};
+use crate::track::{ChordParam, ChordStream, DiffStream, GridPoint, GridStream, Smoother, TrackPoint};
+
+/// Parameters of the incremental track, chosen at warm-up (or given).
+#[derive(Debug, Clone, Copy)]
+pub struct TrackParams {
+    /// Plane of the path (3D -> 2D).
+    pub plane: Plane,
+    /// Stationary threshold (path units).
+    pub min_step: f64,
+    /// Typical step between kept poses.
+    pub typical_step: f64,
+    /// Grid step in the chord parameter.
+    pub grid_step: f64,
+    /// Kernel smoother.
+    pub smoother: Smoother,
+}
+
+impl TrackParams {
+    /// Chooses the parameters from a prefix of 3D positions, as the batch
+    /// path does from a whole path. `None` when the prefix does not move.
+    pub fn from_prefix(positions: &[Vector3<f64>]) -> Option<TrackParams> {
+        let plane = Plane::fit(positions);
+        let points: Vec<Vector2<f64>> = positions.iter().map(|p| plane.to_2d(p)).collect();
+        let chord = ChordParam::new(&points)?;
+        let smoother = Smoother::choose(&chord);
+        let min_step = ChordParam::min_step_of(&points)?;
+        Some(TrackParams {
+            plane,
+            min_step,
+            typical_step: chord.typical_step,
+            grid_step: chord.typical_step / 2.0,
+            smoother,
+        })
+    }
+}
+
+/// A finalised track sample as the history stores it.
+#[derive(Debug, Clone, Copy)]
+pub struct GridRec {
+    /// Smoothed position (detector frame).
+    pub xy: Vector2<f64>,
+    /// Arc length.
+    pub s: f64,
+    /// Curvature.
+    pub curvature: f64,
+    /// Fractional pose index.
+    pub pose: f64,
+}
+
+/// Finalised samples not yet handed to the worker.
+#[derive(Debug, Clone, Default)]
+pub struct Outbox {
+    /// Track samples.
+    pub grid: Vec<GridRec>,
+    /// Signature samples.
+    pub sig: Vec<SigPoint>,
+    /// Finalised boundaries (signature sample indices).
+    pub bounds: Vec<usize>,
+    /// Keyframe ids by pose index.
+    pub keyframes: Vec<(usize, u64)>,
+}
+
+impl Outbox {
+    /// True when there is nothing to send.
+    pub fn is_empty(&self) -> bool {
+        self.grid.is_empty() && self.sig.is_empty() && self.bounds.is_empty() && self.keyframes.is_empty()
+    }
+}
+
+/// The incremental stages after warm-up.
+#[derive(Debug, Clone)]
+pub struct Streams {
+    /// Parameters in use.
+    pub params: TrackParams,
+    chord: ChordStream,
+    grid: GridStream,
+    diff: DiffStream,
+    sig: SignatureStream,
+    bounds: BoundaryStream,
+    jumps: JumpFilter,
+}
+
+impl Streams {
+    /// Streams with these parameters.
+    pub fn new(params: TrackParams, config: &OnlineConfig) -> Streams {
+        let pc = &config.pipeline;
+        Streams {
+            params,
+            chord: ChordStream::new(params.min_step),
+            grid: GridStream::new(params.smoother, params.grid_step),
+            diff: DiffStream::new(),
+            sig: SignatureStream::new(&pc.signature),
+            bounds: BoundaryStream::new(&pc.segments, pc.signature.dk),
+            jumps: JumpFilter::new(params.typical_step, config.jump_factor),
+        }
+    }
+
+    /// Feeds pose `index` (3D position, already checked finite).
+    pub fn push(&mut self, index: usize, p: &Vector3<f64>, counts: &mut GuardCounts, out: &mut Outbox) {
+        let xy = self.params.plane.to_2d(p);
+        match self.jumps.push(index, xy, counts) {
+            Passed::None => {}
+            Passed::One((i, q)) => self.feed(i, q, out),
+            Passed::Two([(i, q), (j, r)]) => {
+                self.feed(i, q, out);
+                self.feed(j, r, out);
+            }
+        }
+    }
+
+    /// Ends the stream: every remaining sample and boundary is finalised.
+    pub fn flush(&mut self, counts: &mut GuardCounts, out: &mut Outbox) {
+        if let Some((i, q)) = self.jumps.flush(counts) {
+            self.feed(i, q, out);
+        }
+        let count = self.grid.count_for(self.chord.u());
+        let Self {
+            grid, diff, sig, bounds, ..
+        } = self;
+        grid.flush(count, &mut |g| on_grid(g, diff, sig, bounds, out));
+        diff.flush(&mut |t| on_track(t, sig, bounds, out));
+        sig.flush(&mut |p| on_sig(p, bounds, out));
+        out.bounds.extend(bounds.flush());
+    }
+
+    fn feed(&mut self, index: usize, xy: Vector2<f64>, out: &mut Outbox) {
+        let (u, kept) = self.chord.push(xy);
+        if !kept {
+            return;
+        }
+        let Self {
+            grid, diff, sig, bounds, ..
+        } = self;
+        grid.push(u, xy, index, &mut |g| on_grid(g, diff, sig, bounds, out));
+    }
+}
+
+fn on_grid(g: GridPoint, diff: &mut DiffStream, sig: &mut SignatureStream, bounds: &mut BoundaryStream, out: &mut Outbox) {
+    diff.push(g, &mut |t| on_track(t, sig, bounds, out));
+}
+
+fn on_track(t: TrackPoint, sig: &mut SignatureStream, bounds: &mut BoundaryStream, out: &mut Outbox) {
+    out.grid.push(GridRec {
+        xy: t.xy,
+        s: t.s,
+        curvature: t.curvature,
+        pose: t.pose,
+    });
+    sig.push(t.heading, t.curvature, t.s, &mut |p| on_sig(p, bounds, out));
+}
+
+fn on_sig(p: SigPoint, bounds: &mut BoundaryStream, out: &mut Outbox) {
+    out.sig.push(p);
+    if let Some(b) = bounds.push(p.s) {
+        out.bounds.push(b);
+    }
+}
+
+/// Warm-up buffer, then the streams.
+#[derive(Debug, Clone)]
+pub enum Frontend {
+    /// Collecting the prefix that chooses the parameters.
+    Warmup(Vec<(usize, Vector3<f64>)>),
+    /// Running.
+    Running(Box<Streams>),
+}
+
+impl Frontend {
+    /// Feeds one checked pose; may end the warm-up (then replays it).
+    pub fn push(&mut self, index: usize, p: Vector3<f64>, config: &OnlineConfig, counts: &mut GuardCounts, out: &mut Outbox) {
+        match self {
+            Frontend::Running(s) => s.push(index, &p, counts, out),
+            Frontend::Warmup(buf) => {
+                buf.push((index, p));
+                if buf.len() >= config.warmup_min_poses && (buf.len() >= config.warmup_max_poses || spans_plane(buf, config.plane_ratio)) {
+                    self.start(config, counts, out);
+                }
+            }
+        }
+    }
+
+    /// Ends the warm-up now (with whatever prefix there is) and replays it.
+    /// Returns false when the prefix does not move.
+    pub fn start(&mut self, config: &OnlineConfig, counts: &mut GuardCounts, out: &mut Outbox) -> bool {
+        let Frontend::Warmup(buf) = self else {
+            return true;
+        };
+        let positions: Vec<Vector3<f64>> = buf.iter().map(|(_, p)| *p).collect();
+        let Some(params) = TrackParams::from_prefix(&positions) else {
+            return false;
+        };
+        let buf = std::mem::take(buf);
+        self.start_with(params, config, counts, out, buf);
+        true
+    }
+
+    /// Starts with given parameters (replaying `buf`).
+    pub fn start_with(&mut self, params: TrackParams, config: &OnlineConfig, counts: &mut GuardCounts, out: &mut Outbox, buf: Vec<(usize, Vector3<f64>)>) {
+        let mut streams = Box::new(Streams::new(params, config));
+        for (i, p) in &buf {
+            streams.push(*i, p, counts, out);
+        }
+        *self = Frontend::Running(streams);
+    }
+
+    /// The parameters, once running.
+    pub fn params(&self) -> Option<&TrackParams> {
+        match self {
+            Frontend::Running(s) => Some(&s.params),
+            Frontend::Warmup(_) => None,
+        }
+    }
+}
+
+/// Does the prefix span a plane (not just a line)?
+fn spans_plane(buf: &[(usize, Vector3<f64>)], ratio: f64) -> bool {
+    // Checked every 32 poses: the eigen decomposition is not free.
+    if buf.len() % 32 != 0 {
+        return false;
+    }
+    let n = buf.len() as f64;
+    let c = buf.iter().fold(Vector3::zeros(), |a, (_, p)| a + p) / n;
+    let mut m = nalgebra::Matrix3::zeros();
+    for (_, p) in buf {
+        let d = p - c;
+        m += d * d.transpose();
+    }
+    let mut ev: Vec<f64> = nalgebra::SymmetricEigen::new(m).eigenvalues.iter().copied().collect();
+    ev.sort_by(|a, b| b.total_cmp(a));
+    ev[1] > ratio * ev[2].max(0.0) && ev[1] > 1e-4 * ev[0]
+}

@@ -1,0 +1,210 @@
+//! The worker's compact history of finalised samples, and local
+//! [`PreparedPath`] windows cut from it for the batch verification.
+//!
+//! Storage per track grid sample: position `2 x f32`, arc length `f64`,
+//! curvature `f32`, pose index `u32` (24 bytes; about two samples per moving
+//! pose). Per signature sample: value `f32`, grid index `f64` (12 bytes).
+//! Positions are relative to the warm-up plane's centroid, so `f32` keeps
+//! well below a millimetre on paths of tens of kilometres.
+
+use nalgebra::Vector2;
+
+use crate::geometry::{Plane, Polyline2};
+use crate::pipeline::PreparedPath;
+use crate::signature::Signature;
+use crate::track::Track;
+
+/// Finalised samples of the whole path so far.
+#[derive(Debug, Default)]
+pub struct History {
+    /// Track positions.
+    pub xy: Vec<[f32; 2]>,
+    /// Track arc length.
+    pub s: Vec<f64>,
+    /// Track curvature.
+    pub curvature: Vec<f32>,
+    /// Nearest pose index of each track sample.
+    pub pose: Vec<u32>,
+    /// Signature values.
+    pub sig_value: Vec<f32>,
+    /// Fractional track index of each signature sample.
+    pub sig_grid: Vec<f64>,
+    /// Segment boundaries (signature indices).
+    pub bounds: Vec<usize>,
+    /// Keyframe ids by pose index, increasing.
+    pub keyframes: Vec<(u32, u64)>,
+}
+
+/// A window of the history as a prepared path, with its offsets.
+pub struct Window {
+    /// The prepared path (local indices).
+    pub path: PreparedPath,
+    /// First track sample of the window.
+    pub grid0: usize,
+    /// First signature sample of the window.
+    pub sig0: usize,
+}
+
+impl History {
+    /// Track position of sample `i`.
+    pub fn point(&self, i: usize) -> Vector2<f64> {
+        let p = self.xy[i];
+        Vector2::new(p[0] as f64, p[1] as f64)
+    }
+
+    /// Arc length at signature sample `j`.
+    pub fn sig_s(&self, j: usize) -> f64 {
+        Track::interp(&self.s, self.sig_grid[j])
+    }
+
+    /// Bytes held per stored item (for the memory figures).
+    pub fn bytes(&self) -> usize {
+        self.xy.capacity() * 8
+            + self.s.capacity() * 8
+            + self.curvature.capacity() * 4
+            + self.pose.capacity() * 4
+            + self.sig_value.capacity() * 4
+            + self.sig_grid.capacity() * 8
+            + self.bounds.capacity() * 8
+            + self.keyframes.capacity() * 16
+    }
+
+    /// Keyframe ids of poses in `[p0, p1]`, at most `max` spread evenly.
+    pub fn keyframes_in(&self, range: [usize; 2], max: usize) -> Vec<u64> {
+        let lo = self.keyframes.partition_point(|k| (k.0 as usize) < range[0]);
+        let hi = self.keyframes.partition_point(|k| (k.0 as usize) <= range[1]);
+        let n = hi - lo;
+        if n <= max {
+            return self.keyframes[lo..hi].iter().map(|k| k.1).collect();
+        }
+        (0..max)
+            .map(|i| self.keyframes[lo + i * (n - 1) / (max - 1).max(1)].1)
+            .collect()
+    }
+
+    /// Track samples `[g0, g1]` (clamped) as a prepared path.
+    #[allow(clippy::too_many_arguments)]
+    pub fn window(&self, g0: usize, g1: usize, plane: &Plane, step: f64, bandwidth: f64, dk: f64, poses: usize) -> Option<Window> {
+        let g1 = g1.min(self.xy.len().checked_sub(1)?);
+        if g1 < g0 + 3 {
+            return None;
+        }
+        let xy: Vec<Vector2<f64>> = (g0..=g1).map(|i| self.point(i)).collect();
+        let heading = (0..xy.len())
+            .map(|i| {
+                let d = xy[(i + 1).min(xy.len() - 1)] - xy[i.saturating_sub(1)];
+                d.y.atan2(d.x)
+            })
+            .collect();
+        let track = Track {
+            s: self.s[g0..=g1].to_vec(),
+            heading,
+            curvature: self.curvature[g0..=g1].iter().map(|&c| c as f64).collect(),
+            pose: self.pose[g0..=g1].iter().map(|&p| p as f64).collect(),
+            step,
+            pose_u: Vec::new(),
+            bandwidth,
+            xy,
+        };
+        let sig0 = self.sig_grid.partition_point(|&g| g < g0 as f64);
+        let sig1 = self.sig_grid.partition_point(|&g| g <= g1 as f64);
+        let mut signature = Signature {
+            dk,
+            ..Signature::default()
+        };
+        for j in sig0..sig1 {
+            let grid = self.sig_grid[j] - g0 as f64;
+            signature.value.push(self.sig_value[j] as f64);
+            signature.s.push(Track::interp(&track.s, grid));
+            signature.grid.push(grid);
+        }
+        let bounds = self
+            .bounds
+            .iter()
+            .filter(|&&b| b >= sig0 && b < sig1)
+            .map(|&b| b - sig0)
+            .collect();
+        let polyline = Polyline2::new(&track.xy);
+        Some(Window {
+            path: PreparedPath {
+                plane: *plane,
+                track,
+                signature,
+                bounds,
+                polyline,
+                poses,
+            },
+            grid0: g0,
+            sig0,
+        })
+    }
+}
+
+/// Uniform hash grid over decimated track samples: nearest earlier
+/// positions without scanning the history. The cell is a multiple of the
+/// typical step (scale-free).
+#[derive(Debug, Default)]
+pub struct SpatialIndex {
+    cell: f64,
+    every: usize,
+    cells: std::collections::HashMap<(i32, i32), Vec<u32>>,
+    indexed: usize,
+}
+
+impl SpatialIndex {
+    /// Cells of `cell` units, one sample in `every` indexed.
+    pub fn new(cell: f64, every: usize) -> Self {
+        SpatialIndex {
+            cell,
+            every: every.max(1),
+            cells: Default::default(),
+            indexed: 0,
+        }
+    }
+
+    fn key(&self, p: &Vector2<f64>) -> (i32, i32) {
+        ((p.x / self.cell).floor() as i32, (p.y / self.cell).floor() as i32)
+    }
+
+    /// Indexes the history's new samples.
+    pub fn update(&mut self, h: &History) {
+        while self.indexed < h.xy.len() {
+            let i = self.indexed;
+            if i % self.every == 0 {
+                let k = self.key(&h.point(i));
+                self.cells.entry(k).or_default().push(i as u32);
+            }
+            self.indexed += 1;
+        }
+    }
+
+    /// Nearest indexed sample to `p` within `radius` that passes `allowed`.
+    pub fn nearest(&self, h: &History, p: &Vector2<f64>, radius: f64, allowed: impl Fn(usize) -> bool) -> Option<(f64, usize)> {
+        let r = (radius / self.cell).ceil() as i32;
+        if r > 64 {
+            return None;
+        }
+        let (cx, cy) = self.key(p);
+        let mut best: Option<(f64, usize)> = None;
+        for dx in -r..=r {
+            for dy in -r..=r {
+                let Some(list) = self.cells.get(&(cx + dx, cy + dy)) else {
+                    continue;
+                };
+                for &i in list {
+                    let i = i as usize;
+                    let d = (h.point(i) - p).norm();
+                    if d <= radius && best.is_none_or(|b| d < b.0) && allowed(i) {
+                        best = Some((d, i));
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    /// Bytes held (approximate: entries plus per-cell overhead).
+    pub fn bytes(&self) -> usize {
+        self.cells.values().map(|v| v.capacity() * 4 + 48).sum()
+    }
+}

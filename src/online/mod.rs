@@ -1,0 +1,33 @@
+//! The online detector: poses arrive one at a time (a VO or SLAM loop), the
+//! stages of the batch path are kept up to date incrementally, and every
+//! newly finalised clothoid segment triggers a search of the last `N`
+//! segments against the history on a worker thread.
+//!
+//! - [`frontend`]: guards, warm-up, incremental track/signature/segments
+//!   (the batch stages' own streams);
+//! - [`guard`]: out-of-order, duplicate and non-finite poses, jumps;
+//! - [`history`]: the worker's compact history and its local windows;
+//! - [`correlator`]: per-block spectra and per-segment cached correlations;
+//! - [`search`]: queries, proximity probe, batch verification and scoring;
+//! - [`worker`]: the thread, the bounded queue and its overflow policy;
+//! - [`events`]: candidates and verifier outcomes;
+//! - [`detector`]: the public type;
+//! - [`cli`]: `turnprint stream`.
+
+pub mod cli;
+pub mod config;
+pub mod correlator;
+pub mod detector;
+pub mod events;
+pub mod frontend;
+pub mod guard;
+pub mod history;
+pub mod search;
+pub mod worker;
+
+pub use config::{Exclusion, OnlineConfig};
+pub use detector::{Detector, PoseInput, Pushed, Summary};
+pub use events::{CandidateEvent, Ledger, Outcome};
+pub use frontend::TrackParams;
+pub use guard::{GuardCounts, Rejection};
+pub use worker::Overflow;

@@ -1,0 +1,435 @@
+//! What a newly finalised segment triggers: the queries of its last
+//! `N = min..=max` segments against the history (both directions), the
+//! proximity probe (nearest earlier position), the batch verification of
+//! the strongest of both, the loop score with the drift prior, and the top
+//! k as hypotheses.
+
+use std::collections::HashMap;
+
+use super::correlator::{BlockCorrelator, Piece};
+use super::history::{History, SpatialIndex, Window};
+use super::{Exclusion, OnlineConfig};
+use crate::geometry::{Plane, Similarity2};
+use crate::matching::{Candidate, Orientation};
+use crate::pipeline::{verify, Verified};
+use crate::score::{loop_score, score};
+use crate::Hypothesis;
+
+/// Below this fraction of the history's variance a window is flat (as in
+/// the batch correlator).
+const FLAT_FRACTION: f64 = 1e-4;
+/// Probe points of a proximity window (as in the batch proximity seeds).
+const PROBES: usize = 8;
+/// A window revisits a place when its probes' median distance is below this
+/// fraction of its length (as in the batch proximity seeds).
+const NEAR_FRACTION: f64 = 0.25;
+
+/// Track parameters the search needs.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame {
+    /// The plane of the detector's 2D frame.
+    pub plane: Plane,
+    /// Grid step.
+    pub step: f64,
+    /// Smoothing bandwidth.
+    pub bandwidth: f64,
+    /// Poses pushed so far.
+    pub poses: usize,
+}
+
+/// A verified, scored candidate of one query.
+#[derive(Debug, Clone)]
+pub struct Found {
+    /// The hypothesis: `a_range` the later (query) part, `b_range` the match.
+    pub hypothesis: Hypothesis,
+    /// Came from the proximity probe rather than the shape search.
+    pub proximity: bool,
+}
+
+/// Search state kept between segments.
+pub struct Searcher {
+    /// Block spectra and prefix sums of the history signature.
+    pub correlator: BlockCorrelator,
+    /// Cached raw correlations of the newest pieces (oldest first).
+    pub pieces: Vec<Piece>,
+    /// Decimated positions for the proximity probe.
+    pub spatial: Option<SpatialIndex>,
+}
+
+impl Searcher {
+    /// An empty searcher.
+    pub fn new(config: &OnlineConfig) -> Self {
+        Searcher {
+            correlator: BlockCorrelator::new(config.block_len),
+            pieces: Vec::new(),
+            spatial: None,
+        }
+    }
+
+    /// Takes in the history's new samples (spectra, prefix sums, index).
+    pub fn update(&mut self, h: &History, frame: &Frame) {
+        self.correlator.update(&h.sig_value);
+        let spatial = self.spatial.get_or_insert_with(|| SpatialIndex::new(64.0 * frame.step, 4));
+        spatial.update(h);
+    }
+
+    /// Caches the piece ending at boundary number `k` (`k >= 1`).
+    pub fn add_piece(&mut self, h: &History, k: usize, keep: usize) {
+        let (b0, b1) = (h.bounds[k - 1], h.bounds[k]);
+        let piece = self.correlator.piece(&h.sig_value, b0, b1 - b0);
+        self.pieces.push(piece);
+        if self.pieces.len() > keep {
+            self.pieces.remove(0);
+        }
+    }
+
+    /// Shape candidates of the queries ending at the newest boundary.
+    pub fn shape_candidates(&self, h: &History, config: &OnlineConfig) -> Vec<Candidate> {
+        let qc = &config.pipeline.query;
+        let a = &h.sig_value;
+        let n_bounds = h.bounds.len();
+        if n_bounds < 2 || self.pieces.is_empty() {
+            return Vec::new();
+        }
+        let q1 = h.bounds[n_bounds - 1];
+        let hist = self.correlator.prefix.len() - 1;
+        let total_var = {
+            let (s, sq) = self.correlator.window(0, hist);
+            (sq / hist as f64 - (s / hist as f64).powi(2)).max(0.0)
+        };
+        let flat = FLAT_FRACTION * total_var;
+        let mut fwd = vec![0f64; q1 + 1];
+        let mut rev = vec![0f64; q1 + 1];
+        let mut pooled: HashMap<(bool, i64), Candidate> = HashMap::new();
+        let max_n = qc.max_segments.min(self.pieces.len());
+        for n in 1..=max_n {
+            let piece = &self.pieces[self.pieces.len() - n];
+            let q0 = piece.start;
+            let len = q1 - q0 + 1;
+            let margin = match config.exclusion {
+                Exclusion::Turning(k) => (k / config.pipeline.signature.dk).round() as usize,
+                Exclusion::Segments(s) => {
+                    let back = (n + s).min(n_bounds - 1);
+                    q0 - h.bounds[n_bounds - 1 - back]
+                }
+            };
+            let Some(end) = q0.checked_sub(margin) else {
+                break;
+            };
+            // Windows lie in [0, end): forward x in [len-1, end-1], reversed
+            // x in [0, end-len]; both shrink as n grows.
+            if end < len {
+                break;
+            }
+            let (f_lo, f_hi) = (len - 1, end - 1);
+            let (r_lo, r_hi) = (0, end - len);
+            for x in f_lo..=f_hi {
+                let e = x + q0 - q1;
+                fwd[x] += piece.forward.get(e).copied().unwrap_or(0.0) as f64;
+            }
+            for x in r_lo..=r_hi {
+                let e = x + q1 - q0;
+                rev[x] += piece.reversed.get(e).copied().unwrap_or(0.0) as f64;
+            }
+            if n < qc.min_segments {
+                continue;
+            }
+            let q: Vec<f64> = a[q0..=q1].iter().map(|&v| v as f64).collect();
+            let mean = q.iter().sum::<f64>() / len as f64;
+            let q_norm2: f64 = q.iter().map(|v| (v - mean).powi(2)).sum();
+            if q_norm2 <= 0.0 {
+                continue;
+            }
+            let last = a[q1] as f64;
+            let zncc_at = |start: usize, raw: f64, sign: f64| -> f64 {
+                let (s, sq) = self.correlator.window(start, len);
+                let var = sq / len as f64 - (s / len as f64).powi(2);
+                if var <= flat {
+                    return 0.0;
+                }
+                let num = raw - sign * mean * s;
+                (num / ((var * len as f64).sqrt() * q_norm2.sqrt())).clamp(-1.0, 1.0)
+            };
+            let spacing = (len - 1).div_ceil(2).max(1);
+            let forward: Vec<(usize, f64)> = (f_lo..=f_hi)
+                .map(|x| (x, zncc_at(x + 1 - len, fwd[x] + last * a[x] as f64, 1.0)))
+                .collect();
+            let reversed: Vec<(usize, f64)> = (r_lo..=r_hi)
+                .map(|x| (x, zncc_at(x, rev[x] - last * a[x] as f64, -1.0)))
+                .collect();
+            for (is_rev, scores) in [(false, forward), (true, reversed)] {
+                for (x, z) in peaks(&scores, qc.min_zncc, qc.peaks_per_query, spacing) {
+                    let line = if is_rev { x as i64 + q1 as i64 } else { x as i64 - q1 as i64 };
+                    let cand = Candidate {
+                        orientation: Orientation {
+                            reversed: is_rev,
+                            mirrored: false,
+                        },
+                        query: [q0, q1],
+                        seed: [q0, q1],
+                        line,
+                        zncc: z,
+                        strength: z * z * len as f64,
+                    };
+                    let key = (is_rev, line.div_euclid(qc.line_tolerance.max(1) as i64));
+                    pooled
+                        .entry(key)
+                        .and_modify(|p| {
+                            p.strength += cand.strength;
+                            p.query = [p.query[0].min(q0), q1];
+                            // The best vote (as the batch pool): highest
+                            // ZNCC, longer queries winning near-ties.
+                            if z * (q1 - q0) as f64 > p.zncc * (p.seed[1] - p.seed[0]) as f64 {
+                                p.zncc = z;
+                                p.line = line;
+                                p.seed = [q0, q1];
+                            }
+                        })
+                        .or_insert(cand);
+                }
+            }
+        }
+        let mut out: Vec<Candidate> = pooled.into_values().collect();
+        out.sort_by(|x, y| y.strength.total_cmp(&x.strength));
+        out.truncate(config.max_verify);
+        out
+    }
+}
+
+/// The best `count` local maxima above `min`, at least `spacing` apart.
+fn peaks(s: &[(usize, f64)], min: f64, count: usize, spacing: usize) -> Vec<(usize, f64)> {
+    let mut found: Vec<(usize, f64)> = Vec::new();
+    for i in 0..s.len() {
+        let v = s[i].1;
+        if v < min {
+            continue;
+        }
+        let left = i == 0 || s[i - 1].1 < v;
+        let right = i + 1 == s.len() || s[i + 1].1 <= v;
+        if left && right {
+            found.push(s[i]);
+        }
+    }
+    found.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut kept: Vec<(usize, f64)> = Vec::with_capacity(count);
+    for (x, v) in found {
+        if kept.iter().all(|&(k, _)| k.abs_diff(x) >= spacing) {
+            kept.push((x, v));
+            if kept.len() == count {
+                break;
+            }
+        }
+    }
+    kept
+}
+
+/// Proximity seed of the newest two segments (as the batch proximity
+/// seeds), or, for a periodic probe (`segments == false`), of the newest
+/// `window` track samples.
+pub fn proximity_seed(h: &History, spatial: &SpatialIndex, segments: bool, window: usize) -> Option<([usize; 2], usize)> {
+    let last = h.xy.len().checked_sub(1)?;
+    let nb = h.bounds.len();
+    let g0 = if segments && nb >= 3 {
+        h.sig_grid[h.bounds[nb - 3]].floor() as usize
+    } else {
+        last.saturating_sub(window)
+    };
+    probe(h, spatial, g0, last)
+}
+
+/// The probe of track samples `[g0, g1]`: the median nearest earlier
+/// sample (at least the window's own length back along the path) when the
+/// probes' median distance is below [`NEAR_FRACTION`] of the window length.
+pub fn probe(h: &History, spatial: &SpatialIndex, g0: usize, g1: usize) -> Option<([usize; 2], usize)> {
+    if g1 <= g0 + PROBES {
+        return None;
+    }
+    let length = h.s[g1] - h.s[g0];
+    let radius = NEAR_FRACTION * length;
+    let mut dists = Vec::with_capacity(PROBES);
+    let mut targets = Vec::with_capacity(PROBES);
+    for k in 0..PROBES {
+        let g = g0 + (k * (g1 - g0)) / (PROBES - 1);
+        let (p, s) = (h.point(g), h.s[g]);
+        match spatial.nearest(h, &p, radius, |t| (h.s[t] - s).abs() > length && t < g0) {
+            Some((d, t)) => {
+                dists.push(d);
+                targets.push(t);
+            }
+            None => dists.push(f64::INFINITY),
+        }
+    }
+    dists.sort_by(f64::total_cmp);
+    if !(dists[PROBES / 2] < radius) || targets.is_empty() {
+        return None;
+    }
+    targets.sort_unstable();
+    Some(([g0, g1], targets[targets.len() / 2]))
+}
+
+/// Verifies, scores and converts the candidates of one query.
+pub fn verify_all(
+    h: &History,
+    frame: &Frame,
+    shape: &[Candidate],
+    seed: Option<([usize; 2], usize)>,
+    config: &OnlineConfig,
+) -> Vec<Found> {
+    let pc = &config.pipeline;
+    let dk = pc.signature.dk;
+    let mut found = Vec::new();
+    let window = |g0: usize, g1: usize| h.window(g0, g1, &frame.plane, frame.step, frame.bandwidth, dk, frame.poses);
+    for cand in shape {
+        let (q0, q1) = (cand.query[0], cand.query[1]);
+        let t = [cand.target_of(q0), cand.target_of(q1)];
+        let (t0, t1) = (t[0].min(t[1]).max(0) as usize, t[0].max(t[1]).max(0) as usize);
+        if t1 >= h.sig_grid.len() {
+            continue;
+        }
+        let (gq0, gq1) = (h.sig_grid[q0].floor() as usize, h.sig_grid[q1].ceil() as usize);
+        let (gt0, gt1) = (h.sig_grid[t0].floor() as usize, h.sig_grid[t1].ceil() as usize);
+        // Room to grow: the query's own length on each side.
+        let room = gq1 - gq0;
+        let Some(qw) = window(gq0.saturating_sub(room), gq1 + room) else {
+            continue;
+        };
+        let Some(tw) = window(gt0.saturating_sub(room), gt1 + room) else {
+            continue;
+        };
+        let (qs, ts) = (qw.sig0 as i64, tw.sig0 as i64);
+        let local = Candidate {
+            query: [q0 - qw.sig0, q1 - qw.sig0],
+            seed: [cand.seed[0] - qw.sig0, cand.seed[1] - qw.sig0],
+            line: if cand.orientation.reversed { cand.line - qs - ts } else { cand.line + qs - ts },
+            ..cand.clone()
+        };
+        if local.query[1] >= qw.path.signature.len() {
+            continue;
+        }
+        let seed_len = h.sig_s(q1) - h.sig_s(q0);
+        let allowed = |g: usize, v: f64| {
+            let sq = h.s[g + qw.grid0];
+            let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
+            (sq - st).abs() > seed_len
+        };
+        let xy = qw.path.points(false);
+        if let Some(v) = verify::verify(&tw.path, &qw.path, &xy, &local, pc, &allowed) {
+            found.extend(finish(h, &tw, &qw, &v, frame, config, false));
+        }
+    }
+    if let Some((range, target)) = seed {
+        let room = range[1] - range[0];
+        if let (Some(qw), Some(tw)) = (
+            window(range[0].saturating_sub(room), (range[1] + room).min(h.xy.len() - 1)),
+            window(target.saturating_sub(2 * room), target + 2 * room),
+        ) {
+            let seed_len = h.s[range[1]] - h.s[range[0]];
+            let allowed = |g: usize, v: f64| {
+                let sq = h.s[g + qw.grid0];
+                let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
+                (sq - st).abs() > seed_len
+            };
+            let xy = qw.path.points(false);
+            let local = [range[0] - qw.grid0, range[1] - qw.grid0];
+            // The two windows are one map: the identity between the frames.
+            if let Some(v) = verify::verify_seeded(&tw.path, &qw.path, &xy, local, Similarity2::identity(), false, pc, &allowed) {
+                found.extend(finish(h, &tw, &qw, &v, frame, config, true));
+            }
+        }
+    }
+    found.sort_by(|a, b| b.hypothesis.score.total_cmp(&a.hypothesis.score));
+    if std::env::var("TURNPRINT_DEBUG").is_ok() {
+        eprintln!(
+            "poses {} shape {} seed {:?} found {:?}",
+            frame.poses,
+            shape.len(),
+            seed,
+            found.iter().map(|f| (f.hypothesis.score, f.hypothesis.a_range, f.hypothesis.b_range, f.proximity)).collect::<Vec<_>>()
+        );
+    }
+    let mut kept: Vec<Found> = Vec::new();
+    for f in found {
+        if kept.len() >= config.top_k {
+            break;
+        }
+        if f.hypothesis.score < config.min_score {
+            break;
+        }
+        let dup = kept.iter().any(|k| {
+            crate::pipeline::rank::range_overlap(k.hypothesis.b_range, f.hypothesis.b_range) > 0.5
+                && crate::pipeline::rank::range_overlap(k.hypothesis.a_range, f.hypothesis.a_range) > 0.5
+        });
+        if !dup {
+            kept.push(f);
+        }
+    }
+    for (i, f) in kept.iter_mut().enumerate() {
+        f.hypothesis.rank = i + 1;
+    }
+    kept
+}
+
+/// A verified overlap as a loop hypothesis (query = later part), scored
+/// with the drift prior like the batch `loops`.
+#[allow(non_snake_case)]
+fn finish(h: &History, tw: &Window, qw: &Window, v: &Verified, frame: &Frame, config: &OnlineConfig, proximity: bool) -> Option<Found> {
+    let o = &v.overlap;
+    let pose_t = |g: f64| tw.path.pose_of_grid(g);
+    let pose_q = |g: f64| qw.path.pose_of_grid(g);
+    let mut a_range = [pose_q(o.query[0] as f64), pose_q(o.query[1] as f64)];
+    let mut b_range = [pose_t(o.target[0]), pose_t(o.target[1])];
+    // The windows are one map: a_T_b maps target (earlier) onto query.
+    let mut a_T_b = o.a_T_b.inverse();
+    let step = (o.pairs.len() / 50).max(1);
+    let mut correspondences: Vec<(usize, usize)> = o.pairs.iter().step_by(step).map(|&(t, q)| (pose_q(q as f64), pose_t(t))).collect();
+    if b_range[0] > a_range[0] {
+        std::mem::swap(&mut a_range, &mut b_range);
+        a_T_b = a_T_b.inverse();
+        for c in &mut correspondences {
+            *c = (c.1, c.0);
+        }
+    }
+    let lifted = frame.plane.lift(&frame.plane, &a_T_b);
+    let pc = &config.pipeline;
+    // Drift prior: similarity near identity up to the distance in between.
+    let offset = {
+        let mut d: Vec<f64> = o
+            .pairs
+            .iter()
+            .map(|&(t, q)| (tw.path.track.point_at(t) - qw.path.track.xy[q]).norm())
+            .collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(0.0)
+    };
+    let s_of = |w: &Window, g: f64| crate::track::Track::interp(&h.s, g + w.grid0 as f64);
+    let between = (s_of(qw, o.query[0] as f64) - s_of(tw, o.target[1])).abs();
+    let length = o.target_length.max(o.query_length);
+    let angle = a_T_b.angle.rem_euclid(std::f64::consts::TAU);
+    let angle = angle.min(std::f64::consts::TAU - angle);
+    let s = match &pc.drift_prior {
+        Some(prior) => loop_score(&v.evidence, prior.factor(angle, a_T_b.scale, offset, length, between), &pc.score),
+        None => score(&v.evidence, &pc.score),
+    };
+    if !s.is_finite() {
+        return None;
+    }
+    Some(Found {
+        hypothesis: Hypothesis {
+            rank: 0,
+            score: s,
+            zncc: v.evidence.zncc,
+            reversed: v.candidate.orientation.reversed,
+            a_range,
+            b_range,
+            scale: lifted.scale,
+            rotation: lifted.rotation,
+            translation: lifted.translation,
+            rmse: o.rmse,
+            turning: v.evidence.turning,
+            length,
+            length_ratio: v.evidence.length_ratio,
+            correspondences,
+        },
+        proximity,
+    })
+}

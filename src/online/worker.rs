@@ -1,0 +1,217 @@
+//! The matching worker: a thread that owns the history, takes finalised
+//! samples from a bounded queue and answers with candidates on a channel.
+//!
+//! Overflow policy ([`Overflow`]): the caller never loses samples, only
+//! matching work. With [`Overflow::MergeLatest`] (the default for live use)
+//! a push that finds the queue full keeps its samples in the caller's outbox
+//! and tries again on the next push; when the merged message finally goes
+//! through, the worker caches every new segment but runs the queries of the
+//! newest one only: the older ones are counted as `skipped`. Every deferred
+//! send is counted as `deferred`. With [`Overflow::Block`] (file replay,
+//! evaluation) the caller waits for room instead, so results do not depend
+//! on timing.
+
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use crossbeam::channel::{Receiver, Sender};
+use serde::Serialize;
+
+use super::events::CandidateEvent;
+use super::frontend::Outbox;
+use super::history::History;
+use super::search::{proximity_seed, verify_all, Frame, Searcher};
+use super::OnlineConfig;
+
+/// What to do when the worker's queue is full.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Overflow {
+    /// Keep the samples, merge them into the next message, match only the
+    /// newest segment of a merged message (live use: push never waits).
+    #[default]
+    MergeLatest,
+    /// Wait for room (replaying a file: deterministic).
+    Block,
+}
+
+/// One hand-over from the caller.
+#[derive(Debug)]
+pub struct Message {
+    /// Finalised samples.
+    pub out: Outbox,
+    /// Pose whose arrival produced the last of them.
+    pub at_pose: usize,
+    /// Track parameters.
+    pub frame: Frame,
+    /// Samples of deferred sends were merged into this message: only its
+    /// newest segment is matched.
+    pub merged: bool,
+}
+
+/// What the worker did.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct WorkerStats {
+    /// Messages taken.
+    pub messages: u64,
+    /// Segments finalised.
+    pub segments: u64,
+    /// Segments whose queries ran.
+    pub matched: u64,
+    /// Segments whose queries were skipped (merged messages).
+    pub skipped: u64,
+    /// Periodic proximity probes run.
+    pub probes: u64,
+    /// Candidates emitted.
+    pub candidates: u64,
+    /// Time spent matching and verifying (seconds).
+    pub busy_s: f64,
+    /// Longest single matching (seconds).
+    pub max_match_s: f64,
+    /// History bytes at the end (samples, spectra, caches, index).
+    pub history_bytes: u64,
+    /// Track samples in the history.
+    pub grid_samples: u64,
+    /// Signature samples in the history.
+    pub sig_samples: u64,
+}
+
+/// Starts the worker thread.
+pub fn spawn(config: OnlineConfig, rx: Receiver<Message>, tx: Sender<CandidateEvent>) -> JoinHandle<WorkerStats> {
+    std::thread::Builder::new()
+        .name("turnprint-online".into())
+        .spawn(move || run(config, rx, tx))
+        .expect("spawning the matching thread")
+}
+
+/// The state a worker keeps: exposed so benches can drive it without a
+/// thread.
+pub struct WorkerState {
+    /// The history.
+    pub history: History,
+    /// The search state.
+    pub searcher: Searcher,
+    /// Statistics.
+    pub stats: WorkerStats,
+    next_id: u64,
+    config: OnlineConfig,
+}
+
+impl WorkerState {
+    /// An empty worker state.
+    pub fn new(config: OnlineConfig) -> Self {
+        WorkerState {
+            history: History::default(),
+            searcher: Searcher::new(&config),
+            stats: WorkerStats::default(),
+            next_id: 1,
+            config,
+        }
+    }
+
+    /// Takes one message: appends its samples, caches each new segment,
+    /// matches the newest one. Returns the candidates.
+    pub fn take(&mut self, m: Message) -> Vec<CandidateEvent> {
+        self.stats.messages += 1;
+        let h = &mut self.history;
+        for g in &m.out.grid {
+            h.xy.push([g.xy.x as f32, g.xy.y as f32]);
+            h.s.push(g.s);
+            h.curvature.push(g.curvature as f32);
+            h.pose.push(g.pose.round().max(0.0) as u32);
+        }
+        for p in &m.out.sig {
+            h.sig_value.push(p.value as f32);
+            h.sig_grid.push(p.grid);
+        }
+        h.keyframes.extend(m.out.keyframes.iter().map(|&(p, k)| (p as u32, k)));
+        self.searcher.update(h, &m.frame);
+        let keep = self.config.pipeline.query.max_segments;
+        let new = m.out.bounds.len();
+        let mut events = Vec::new();
+        for (i, &b) in m.out.bounds.iter().enumerate() {
+            if self.history.bounds.last() == Some(&b) {
+                continue;
+            }
+            self.history.bounds.push(b);
+            let k = self.history.bounds.len() - 1;
+            if k == 0 {
+                continue;
+            }
+            self.stats.segments += 1;
+            self.searcher.add_piece(&self.history, k, keep);
+            if m.merged && i + 1 < new {
+                self.stats.skipped += 1;
+                continue;
+            }
+            events.extend(self.match_newest(&m.frame, m.at_pose, true));
+        }
+        if new == 0 && self.config.proximity {
+            // A periodic hand-over without a new segment: the proximity
+            // probe alone (straight revisits finalise no segment for long).
+            events.extend(self.match_newest(&m.frame, m.at_pose, false));
+        }
+        events
+    }
+
+    /// Runs the queries of the newest segment.
+    pub fn match_newest(&mut self, frame: &Frame, at_pose: usize, shape: bool) -> Vec<CandidateEvent> {
+        let start = Instant::now();
+        let h = &self.history;
+        let segments = shape;
+        let shape = if shape {
+            self.stats.matched += 1;
+            self.searcher.shape_candidates(h, &self.config)
+        } else {
+            self.stats.probes += 1;
+            Vec::new()
+        };
+        let seed = match (&self.searcher.spatial, self.config.proximity) {
+            (Some(sp), true) => proximity_seed(h, sp, segments, 2 * self.config.probe_every),
+            _ => None,
+        };
+        let found = verify_all(h, frame, &shape, seed, &self.config);
+        let mut events = Vec::new();
+        for f in found {
+            let hy = f.hypothesis;
+            events.push(CandidateEvent {
+                id: self.next_id,
+                at_pose,
+                query_keyframes: h.keyframes_in(hy.a_range, 8),
+                match_keyframes: h.keyframes_in(hy.b_range, 8),
+                hypothesis: hy,
+                proximity: f.proximity,
+            });
+            self.next_id += 1;
+        }
+        self.stats.candidates += events.len() as u64;
+        let dt = start.elapsed().as_secs_f64();
+        self.stats.busy_s += dt;
+        self.stats.max_match_s = self.stats.max_match_s.max(dt);
+        events
+    }
+
+    /// Final figures.
+    pub fn finish_stats(&mut self) -> WorkerStats {
+        let h = &self.history;
+        let pieces: usize = self.searcher.pieces.iter().map(|p| (p.forward.capacity() + p.reversed.capacity()) * 4).sum();
+        let spatial = self.searcher.spatial.as_ref().map_or(0, |s| s.bytes());
+        self.stats.history_bytes = (h.bytes() + self.searcher.correlator.bytes() + pieces + spatial) as u64;
+        self.stats.grid_samples = h.xy.len() as u64;
+        self.stats.sig_samples = h.sig_value.len() as u64;
+        self.stats
+    }
+}
+
+fn run(config: OnlineConfig, rx: Receiver<Message>, tx: Sender<CandidateEvent>) -> WorkerStats {
+    let mut state = WorkerState::new(config);
+    while let Ok(m) = rx.recv() {
+        for e in state.take(m) {
+            // The caller may have dropped its receiver: keep working.
+            let _ = tx.send(e);
+        }
+    }
+    state.finish_stats()
+}
+
+/// How long [`super::Detector::finish`] waits for the worker.
+pub const FINISH_TIMEOUT: Duration = Duration::from_secs(600);

@@ -1,0 +1,280 @@
+//! The track one sample at a time: kernel smoothing on a uniform grid in the
+//! chord parameter, then arc length, heading and curvature by central
+//! differences. [`super::Track::from_smoother`] runs these same streams over
+//! a whole path, so batch and online share one implementation.
+//!
+//! Lags: a grid sample at `u` is final once a kept pose beyond
+//! `u + Smoother::reach()` (three bandwidths) has arrived; its heading and
+//! curvature need two more grid samples (central differences).
+
+use std::collections::VecDeque;
+
+use nalgebra::Vector2;
+
+use super::Smoother;
+
+/// One final sample of the smoothed grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridPoint {
+    /// Chord parameter of the sample.
+    pub u: f64,
+    /// Smoothed position.
+    pub xy: Vector2<f64>,
+    /// Fractional original pose index.
+    pub pose: f64,
+}
+
+/// A kept (moving) pose as the smoother sees it.
+#[derive(Debug, Clone, Copy)]
+struct Kept {
+    u: f64,
+    xy: Vector2<f64>,
+    index: usize,
+}
+
+/// Kernel smoother evaluated on the grid `u_i = i · step` as kept poses
+/// arrive in increasing `u`.
+#[derive(Debug, Clone)]
+pub struct GridStream {
+    smoother: Smoother,
+    step: f64,
+    window: VecDeque<Kept>,
+    /// The last kept pose dropped from the window (pose interpolation).
+    before: Option<Kept>,
+    next: usize,
+}
+
+impl GridStream {
+    /// Grid step `step` (units of `u`), kernel `smoother`.
+    pub fn new(smoother: Smoother, step: f64) -> Self {
+        GridStream {
+            smoother,
+            step,
+            window: VecDeque::new(),
+            before: None,
+            next: 0,
+        }
+    }
+
+    /// Grid step.
+    pub fn step(&self) -> f64 {
+        self.step
+    }
+
+    /// Number of grid samples emitted so far.
+    pub fn emitted(&self) -> usize {
+        self.next
+    }
+
+    /// Feeds a kept pose (chord parameter `u`, position, original index)
+    /// and emits every grid sample that became final.
+    pub fn push(&mut self, u: f64, xy: Vector2<f64>, index: usize, out: &mut impl FnMut(GridPoint)) {
+        self.window.push_back(Kept { u, xy, index });
+        let reach = self.smoother.reach();
+        loop {
+            let ui = self.next as f64 * self.step;
+            if !(u > ui + reach) {
+                break;
+            }
+            out(self.eval(ui));
+            self.next += 1;
+        }
+    }
+
+    /// Emits the remaining samples up to grid index `count - 1` (the end of
+    /// the path: no more poses will come).
+    pub fn flush(&mut self, count: usize, out: &mut impl FnMut(GridPoint)) {
+        if self.window.is_empty() {
+            return;
+        }
+        while self.next < count {
+            let ui = self.next as f64 * self.step;
+            out(self.eval(ui));
+            self.next += 1;
+        }
+    }
+
+    /// Grid samples a path of total chord length `total` has (the last one
+    /// at or just past the end), for [`GridStream::flush`] online.
+    pub fn count_for(&self, total: f64) -> usize {
+        (total / self.step).floor() as usize + 1
+    }
+
+    fn eval(&mut self, ui: f64) -> GridPoint {
+        let reach = self.smoother.reach();
+        while self.window.len() > 1 && self.window[0].u < ui - reach {
+            self.before = self.window.pop_front();
+        }
+        let xy = match self
+            .smoother
+            .kernel(self.window.iter().map(|k| (k.u, k.xy)), ui)
+        {
+            Some((p, _)) => p,
+            None => {
+                // Beyond the kernel reach of every pose: the first pose at or
+                // after `ui` (else the last one).
+                let k = self.window.iter().position(|k| k.u >= ui);
+                self.window[k.unwrap_or(self.window.len() - 1)].xy
+            }
+        };
+        GridPoint {
+            u: ui,
+            xy,
+            pose: self.pose_at(ui),
+        }
+    }
+
+    /// Fractional original pose index at `u` by linear interpolation
+    /// between the kept poses around it.
+    fn pose_at(&self, u: f64) -> f64 {
+        let Some(k) = self.window.iter().position(|k| k.u > u) else {
+            return self.window.back().map_or(0.0, |k| k.index as f64);
+        };
+        let prev = if k == 0 {
+            match self.before {
+                Some(b) => b,
+                None => return self.window[0].index as f64,
+            }
+        } else {
+            self.window[k - 1]
+        };
+        let next = self.window[k];
+        let f = if next.u > prev.u {
+            (u - prev.u) / (next.u - prev.u)
+        } else {
+            0.0
+        };
+        prev.index as f64 + f * (next.index as f64 - prev.index as f64)
+    }
+}
+
+/// One final sample of the track: position, arc length, unwrapped heading,
+/// curvature and fractional pose index.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackPoint {
+    /// Smoothed position.
+    pub xy: Vector2<f64>,
+    /// Arc length of the smoothed curve.
+    pub s: f64,
+    /// Unwrapped heading (radians).
+    pub heading: f64,
+    /// Signed curvature `d heading / ds`.
+    pub curvature: f64,
+    /// Fractional original pose index.
+    pub pose: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Pending {
+    xy: Vector2<f64>,
+    s: f64,
+    pose: f64,
+    heading: f64,
+}
+
+/// Arc length, unwrapped heading and curvature by central differences,
+/// `kappa_i = (theta_{i+1} - theta_{i-1}) / (s_{i+1} - s_{i-1})`, one grid
+/// sample at a time (one-sided at both ends). Lag: two samples.
+#[derive(Debug, Clone, Default)]
+pub struct DiffStream {
+    /// The last (up to) four samples; `base` is the index of the first.
+    ring: VecDeque<Pending>,
+    base: usize,
+    n: usize,
+}
+
+impl DiffStream {
+    /// An empty stream.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Samples received so far.
+    pub fn received(&self) -> usize {
+        self.n
+    }
+
+    fn at(&self, i: usize) -> &Pending {
+        &self.ring[i - self.base]
+    }
+
+    fn at_mut(&mut self, i: usize) -> &mut Pending {
+        &mut self.ring[i - self.base]
+    }
+
+    /// Feeds grid sample `n` and emits sample `n - 2` once it is final.
+    pub fn push(&mut self, g: GridPoint, out: &mut impl FnMut(TrackPoint)) {
+        let n = self.n;
+        let s = if n == 0 {
+            0.0
+        } else {
+            let prev = self.at(n - 1);
+            prev.s + (g.xy - prev.xy).norm()
+        };
+        self.ring.push_back(Pending {
+            xy: g.xy,
+            s,
+            pose: g.pose,
+            heading: 0.0,
+        });
+        self.n += 1;
+        if n >= 1 {
+            self.set_heading(n - 1, n);
+        }
+        if n >= 2 {
+            self.emit(n - 2, n - 1, out);
+        }
+        while self.ring.len() > 4 {
+            self.ring.pop_front();
+            self.base += 1;
+        }
+    }
+
+    /// Emits the last two samples with one-sided differences at the end.
+    pub fn flush(&mut self, out: &mut impl FnMut(TrackPoint)) {
+        let m = self.n;
+        if m == 0 {
+            return;
+        }
+        self.set_heading(m - 1, m - 1);
+        if m >= 2 {
+            self.emit(m - 2, m - 1, out);
+        }
+        self.emit(m - 1, m - 1, out);
+    }
+
+    /// Heading of sample `i` from its neighbours up to `last`, unwrapped
+    /// against sample `i - 1`.
+    fn set_heading(&mut self, i: usize, last: usize) {
+        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(last));
+        let d = self.at(hi).xy - self.at(lo).xy;
+        let mut h = d.y.atan2(d.x);
+        if i > 0 {
+            use std::f64::consts::{PI, TAU};
+            let prev = self.at(i - 1).heading;
+            let mut dh = h - prev;
+            dh -= TAU * ((dh + PI) / TAU).floor();
+            h = prev + dh;
+        }
+        self.at_mut(i).heading = h;
+    }
+
+    fn emit(&self, i: usize, last: usize, out: &mut impl FnMut(TrackPoint)) {
+        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(last));
+        let (a, b) = (self.at(lo), self.at(hi));
+        let ds = b.s - a.s;
+        let curvature = if ds > 0.0 {
+            (b.heading - a.heading) / ds
+        } else {
+            0.0
+        };
+        let p = self.at(i);
+        out(TrackPoint {
+            xy: p.xy,
+            s: p.s,
+            heading: p.heading,
+            curvature,
+            pose: p.pose,
+        });
+    }
+}
