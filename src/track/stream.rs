@@ -68,7 +68,13 @@ impl GridStream {
 
     /// Feeds a kept pose (chord parameter `u`, position, original index)
     /// and emits every grid sample that became final.
-    pub fn push(&mut self, u: f64, xy: Vector2<f64>, index: usize, out: &mut impl FnMut(GridPoint)) {
+    pub fn push(
+        &mut self,
+        u: f64,
+        xy: Vector2<f64>,
+        index: usize,
+        out: &mut impl FnMut(GridPoint),
+    ) {
         self.window.push_back(Kept { u, xy, index });
         let reach = self.smoother.reach();
         loop {
