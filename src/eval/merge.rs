@@ -232,10 +232,10 @@ pub fn negative_case(
     let ia = rng.random_range(0..all.len());
     let ib = (ia + rng.random_range(1..all.len())) % all.len();
     let (pa, pb) = (&all[ia], &all[ib]);
-    let mut sources = vec![Source::Gt, Source::Mono];
-    if pb.seq.gps.is_some() {
-        sources.push(Source::Gps);
-    }
+    let sources: Vec<Source> = [Source::Gt, Source::Mono, Source::Gps]
+        .into_iter()
+        .filter(|s| pb.has(*s))
+        .collect();
     let source = *sources.choose(rng)?;
     let a_win = random_window(rng, &pa.seq.arc, spec.a_len.0, spec.a_len.1)?;
     let b_win = random_window(rng, &pb.seq.arc, spec.a_len.0, spec.a_len.1)?;

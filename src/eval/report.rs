@@ -25,6 +25,8 @@ pub struct Report {
     pub gps_alignment: Option<GpsAlignment>,
     /// Ground-truth revisit events per sequence.
     pub events: Vec<(String, usize)>,
+    /// Sources without data (skipped), e.g. `"02 mono"`.
+    pub missing: Vec<String>,
     pub merge: Option<MergeReport>,
     pub loops: Option<LoopsReport>,
 }
@@ -126,6 +128,19 @@ impl Report {
             gps_alignment: prepared
                 .iter()
                 .find_map(|p| p.seq.gps.as_ref().map(|g| g.1.clone())),
+            missing: prepared
+                .iter()
+                .flat_map(|p| {
+                    let mut m = Vec::new();
+                    if !p.has(Source::Mono) {
+                        m.push(format!("{} mono", p.seq.name));
+                    }
+                    if p.seq.name == "00" && !p.has(Source::Gps) {
+                        m.push("00 gps".to_string());
+                    }
+                    m
+                })
+                .collect(),
             events: prepared
                 .iter()
                 .map(|p| (p.seq.name.clone(), p.events.len()))
@@ -234,6 +249,9 @@ impl Report {
     pub fn to_markdown(&self) -> String {
         let mut s = String::new();
         let _ = writeln!(s, "Data: `{}`, seed {}.\n", self.data_dir, self.seed);
+        if !self.missing.is_empty() {
+            let _ = writeln!(s, "Missing data, skipped: {}.\n", self.missing.join(", "));
+        }
         if let Some(m) = &self.merge {
             self.merge_markdown(m, &mut s);
         }
