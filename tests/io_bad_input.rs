@@ -20,9 +20,18 @@ fn parse_failure(name: &str, text: &str, format: Format) -> (usize, String) {
     let dir = tempfile::tempdir().unwrap();
     let path = file_with(&dir, name, text.as_bytes());
     match read_trajectory(&path, format) {
-        Err(Error::Parse { path: p, line, message }) => {
+        Err(Error::Parse {
+            path: p,
+            line,
+            message,
+        }) => {
             assert_eq!(p, path);
-            let shown = Error::Parse { path: p, line, message: message.clone() }.to_string();
+            let shown = Error::Parse {
+                path: p,
+                line,
+                message: message.clone(),
+            }
+            .to_string();
             assert!(
                 shown.starts_with(&format!("{}:{line}: ", path.display())),
                 "{shown}"
@@ -69,7 +78,11 @@ fn nan_and_inf_are_non_finite_values() {
         ("a.txt", "1 0 0 NaN 0 1 0 0 0 0 1 0\n", 1),
         ("a.xyz", "1 2\n-inf 3\n", 2),
         ("a.csv", "t,x,y\n0,1,2\n1,infinity,2\n", 3),
-        ("a.csv", "#t_ns, px, py, pz, qw, qx, qy, qz\n1403715524907143168,nan,0,0,1,0,0,0\n", 2),
+        (
+            "a.csv",
+            "#t_ns, px, py, pz, qw, qx, qy, qz\n1403715524907143168,nan,0,0,1,0,0,0\n",
+            2,
+        ),
     ];
     for (name, text, expected_line) in cases {
         let (line, message) = parse_failure(name, text, Format::Auto);
@@ -85,13 +98,55 @@ fn nan_and_inf_are_non_finite_values() {
 #[test]
 fn wrong_column_count_names_the_expected_columns() {
     let cases = [
-        ("a.tum", "0 1 2 3 0 0 0 1\n1 2 3 0 0 0 1\n", Format::Auto, 2, "expected 8 numbers"),
-        ("a.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n", Format::Auto, 2, "expected 12 numbers"),
-        ("a.xyz", "1 2 3\n1 2\n", Format::Auto, 2, "expected 3 numbers like line 1"),
-        ("a.xyz", "1 2 3 4\n", Format::Xyz, 1, "expected 2 or 3 numbers"),
-        ("a.csv", "t,x,y\n0,1,2\n1,2\n", Format::Auto, 3, "expected 3 values"),
-        ("a.csv", "#t_ns, px\n1403715524907143168,1,2,3,1,0,0\n", Format::Euroc, 2, "at least 8"),
-        ("a.txt", "1 2 3 4 5\n", Format::Auto, 1, "cannot tell the format"),
+        (
+            "a.tum",
+            "0 1 2 3 0 0 0 1\n1 2 3 0 0 0 1\n",
+            Format::Auto,
+            2,
+            "expected 8 numbers",
+        ),
+        (
+            "a.txt",
+            "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n",
+            Format::Auto,
+            2,
+            "expected 12 numbers",
+        ),
+        (
+            "a.xyz",
+            "1 2 3\n1 2\n",
+            Format::Auto,
+            2,
+            "expected 3 numbers like line 1",
+        ),
+        (
+            "a.xyz",
+            "1 2 3 4\n",
+            Format::Xyz,
+            1,
+            "expected 2 or 3 numbers",
+        ),
+        (
+            "a.csv",
+            "t,x,y\n0,1,2\n1,2\n",
+            Format::Auto,
+            3,
+            "expected 3 values",
+        ),
+        (
+            "a.csv",
+            "#t_ns, px\n1403715524907143168,1,2,3,1,0,0\n",
+            Format::Euroc,
+            2,
+            "at least 8",
+        ),
+        (
+            "a.txt",
+            "1 2 3 4 5\n",
+            Format::Auto,
+            1,
+            "cannot tell the format",
+        ),
     ];
     for (name, text, format, expected_line, words) in cases {
         let (line, message) = parse_failure(name, text, format);
@@ -102,9 +157,16 @@ fn wrong_column_count_names_the_expected_columns() {
 
 #[test]
 fn non_numeric_fields_are_reported_with_their_column() {
-    let (line, message) = parse_failure("a.tum", "0 1 2 3 0 0 0 1\n\n1 2 x3 4 0 0 0 1\n", Format::Auto);
+    let (line, message) = parse_failure(
+        "a.tum",
+        "0 1 2 3 0 0 0 1\n\n1 2 x3 4 0 0 0 1\n",
+        Format::Auto,
+    );
     assert_eq!(line, 3);
-    assert!(message.contains("not a number: 'x3' in column 3"), "{message}");
+    assert!(
+        message.contains("not a number: 'x3' in column 3"),
+        "{message}"
+    );
     let (line, message) = parse_failure("a.csv", "Time,X,Y\n1,2,abc\n", Format::Auto);
     assert_eq!(line, 2);
     assert!(message.contains("'abc'"), "{message}");
@@ -166,7 +228,10 @@ fn truncated_gpx_is_reported() {
             message.contains("truncated GPX") || message.contains("malformed GPX"),
             "{message}"
         );
-        assert!(line >= 1 && line <= truncated.lines().count().max(1), "line {line}");
+        assert!(
+            line >= 1 && line <= truncated.lines().count().max(1),
+            "line {line}"
+        );
     }
     let (_, message) = parse_failure("cut.gpx", "<gpx><trk><trkseg><trkpt lat=\"4", Format::Auto);
     assert!(message.contains("GPX"), "{message}");

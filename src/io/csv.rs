@@ -82,7 +82,11 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
             Some(i) => get(i)?,
             None => 0.0,
         };
-        poses.push(pose(t, Vector3::new(get(columns.x)?, get(columns.y)?, z), None));
+        poses.push(pose(
+            t,
+            Vector3::new(get(columns.x)?, get(columns.y)?, z),
+            None,
+        ));
     }
     Ok(poses)
 }
@@ -116,10 +120,7 @@ pub(super) fn header_columns(header: &str) -> std::result::Result<Columns, Strin
             count: names.len(),
             comma,
         }),
-        _ => Err(format!(
-            "header '{}' has no x and y columns",
-            clip(header)
-        )),
+        _ => Err(format!("header '{}' has no x and y columns", clip(header))),
     }
 }
 

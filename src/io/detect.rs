@@ -7,8 +7,8 @@
 //! header; whitespace-separated numbers: 12 are KITTI, 8 are TUM, else a
 //! `#` header naming x and y makes it CSV, else 2-3 are xyz;
 //! comma-separated numbers: 8 or more starting with an integer (nanoseconds)
-//! are EuRoC, else a `#` header naming x and y makes it CSV, else 8 or more
-//! are EuRoC and 2-3 are xyz.
+//! are EuRoC, else a `#` header naming x and y makes it CSV, else 2-3 are
+//! xyz. Anything else is an error asking for `--format`.
 
 use std::path::Path;
 
@@ -78,7 +78,8 @@ fn classify(line: &str, comment: Option<&str>) -> std::result::Result<Format, St
         match n {
             8.. if integer_time => Some(Format::Euroc),
             _ if named_header => Some(Format::Csv),
-            8.. => Some(Format::Euroc),
+            // 8+ comma-separated numbers without integer nanoseconds could
+            // be a comma-separated TUM file just as well: no guess.
             2 | 3 => Some(Format::Xyz),
             _ => None,
         }

@@ -1,5 +1,7 @@
 //! GPX 1.0/1.1 tracks: every `trkpt` (with `lat`, `lon`, optional `ele` and
-//! `time`) becomes a pose in a local east-north-up frame in metres.
+//! `time`) becomes a pose in a local east-north-up frame in metres. Tracks
+//! and segments are joined in file order; waypoints and route points are
+//! not part of the path and are ignored.
 //!
 //! Maths (WGS84, a = 6378137 m, f = 1/298.257223563, e² = f(2 - f)):
 //! a geodetic point (φ, λ, h) has ECEF coordinates
@@ -85,7 +87,10 @@ enum Field {
 pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
     let line_at = |pos: u64| {
         let end = usize::try_from(pos).map_or(text.len(), |p| p.min(text.len()));
-        1 + text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count()
+        1 + text.as_bytes()[..end]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
     };
     let mut reader = Reader::from_str(text);
     let mut open: Vec<String> = Vec::new();
@@ -233,7 +238,10 @@ fn finish_point(p: Point, path: &Path) -> Result<(Geodetic, Option<f64>)> {
             _ => Err(parse_error(
                 path,
                 p.line,
-                format!("{name} '{}' is not a number in [-{limit}, {limit}]", clip(text)),
+                format!(
+                    "{name} '{}' is not a number in [-{limit}, {limit}]",
+                    clip(text)
+                ),
             )),
         }
     };
@@ -287,6 +295,9 @@ fn seconds_since_epoch(text: &str) -> std::result::Result<f64, String> {
             let dt = naive.and_utc();
             Ok(seconds(dt.timestamp(), dt.timestamp_subsec_nanos()))
         }
-        Err(_) => Err(format!("<time> '{}' is not an ISO 8601 date-time", clip(text))),
+        Err(_) => Err(format!(
+            "<time> '{}' is not an ISO 8601 date-time",
+            clip(text)
+        )),
     }
 }

@@ -85,7 +85,10 @@ impl FromStr for Format {
             .find(|f| f.name() == lower)
             .ok_or_else(|| {
                 let names: Vec<&str> = Format::ALL.iter().map(|f| f.name()).collect();
-                format!("unknown format '{s}' (expected one of: {})", names.join(", "))
+                format!(
+                    "unknown format '{s}' (expected one of: {})",
+                    names.join(", ")
+                )
             })
     }
 }
@@ -131,11 +134,7 @@ pub fn parse_trajectory(text: &str, format: Format, path: &Path) -> Result<Traje
     };
     if poses.is_empty() {
         let last_line = text.lines().count().max(1);
-        return Err(parse_error(
-            path,
-            last_line,
-            "no poses in file",
-        ));
+        return Err(parse_error(path, last_line, "no poses in file"));
     }
     Ok(Trajectory {
         source: path.display().to_string(),
@@ -167,7 +166,10 @@ fn number(field: &str, column: usize) -> std::result::Result<f64, String> {
     match field.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(format!("non-finite value '{field}' in column {column}")),
-        Err(_) => Err(format!("not a number: '{}' in column {column}", clip(field))),
+        Err(_) => Err(format!(
+            "not a number: '{}' in column {column}",
+            clip(field)
+        )),
     }
 }
 
