@@ -126,9 +126,9 @@ impl Default for Options {
         Options {
             data: PathBuf::from("../shared/data"),
             seed: 1,
-            cases: 120,
-            negatives: 40,
-            loop_seeds: 2,
+            cases: 480,
+            negatives: 160,
+            loop_seeds: 4,
             what: What::All,
         }
     }
@@ -166,7 +166,7 @@ pub fn run(opts: &Options) -> Result<Report> {
             .into_iter()
             .filter(|s| prepared.iter().any(|p| p.has(*s)))
             .collect();
-        let mut cases = Vec::new();
+        let (mut cases, mut unattainable) = (Vec::new(), Vec::new());
         let mut draws = 0;
         while cases.len() < opts.cases && draws < 50 * opts.cases.max(1) {
             draws += 1;
@@ -174,9 +174,13 @@ pub fn run(opts: &Options) -> Result<Report> {
             let reversed = (cases.len() / sources.len()) % 2 == 1;
             let having: Vec<&Prepared> = prepared.iter().filter(|p| p.has(source)).collect();
             let p = having[rng.random_range(0..having.len())];
-            if let Some(c) = merge::positive_case(&mut rng, p, source, reversed, &spec) {
-                cases.push(c);
-                bar.inc(1);
+            match merge::positive_case(&mut rng, p, source, reversed, &spec) {
+                Some(c) if c.oracle_correct => {
+                    cases.push(c);
+                    bar.inc(1);
+                }
+                Some(c) => unattainable.push(c),
+                None => {}
             }
         }
         let mut negatives = Vec::new();
@@ -190,7 +194,7 @@ pub fn run(opts: &Options) -> Result<Report> {
                 bar.inc(1);
             }
         }
-        report.set_merge(cases, negatives, spec);
+        report.set_merge(cases, negatives, unattainable, spec);
     }
     if do_loops {
         let drift = drift::DriftModel::strong();
