@@ -45,6 +45,8 @@ pub struct MergeCase {
     pub top5_correct: bool,
     /// Median error (m) of the rank-1 similarity on the common road.
     pub rank1_error_m: Option<f64>,
+    /// Both rank-1 ranges touch the common road.
+    pub rank1_ranges_hit: Option<bool>,
     /// Rotation error (deg) of a correct rank-1 against the best-fit truth.
     pub rot_err_deg: Option<f64>,
     /// Scale error (%) of a correct rank-1.
@@ -219,6 +221,7 @@ pub fn positive_case(
         rank1_correct,
         top5_correct: verdicts.iter().any(|v| v.correct),
         rank1_error_m: verdicts.first().map(|v| v.median_error),
+        rank1_ranges_hit: verdicts.first().map(|v| v.ranges_hit),
         rot_err_deg,
         scale_err_pct,
         oracle_correct,

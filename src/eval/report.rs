@@ -327,6 +327,24 @@ impl Report {
                 .collect::<Vec<_>>()
                 .join("; ")
         );
+        let wrong: Vec<&MergeCase> = m.cases.iter().filter(|c| !c.rank1_correct).collect();
+        let _ = writeln!(
+            s,
+            "Rank-1 failures: {} without a hypothesis, {} with a range off the common road, \
+             {} on the common road with the similarity off by more than the tolerance.\n",
+            wrong
+                .iter()
+                .filter(|c| c.rank1_ranges_hit.is_none())
+                .count(),
+            wrong
+                .iter()
+                .filter(|c| c.rank1_ranges_hit == Some(false))
+                .count(),
+            wrong
+                .iter()
+                .filter(|c| c.rank1_ranges_hit == Some(true))
+                .count(),
+        );
         let _ = writeln!(
             s,
             "Time per match: median {:.1} ms, mean {:.1} ms, max {:.1} ms. `match_paths` errors: {}.\n",
