@@ -1,6 +1,320 @@
-//! The `turnprint` command line: see `cli.md` for the contract.
+//! The `turnprint` command line. The contract (`match`, `loops`, `merge`,
+//! `stream`, their JSON) is `cli.md`; everything else here is ours.
 
-fn main() {
-    eprintln!("turnprint: no command yet");
-    std::process::exit(2);
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde_json::json;
+use turnprint::io::{read_trajectory, write_tum, Format};
+use turnprint::pipeline::{self, PreparedPath};
+use turnprint::{Config, Hypothesis, Trajectory};
+
+#[derive(Parser)]
+#[command(
+    name = "turnprint",
+    version,
+    about = "Find where robot paths overlap by the shape of their turns \
+             (no scale, frame or direction needed)."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Where path B overlaps path A, and the similarity mapping B into A.
+    Match {
+        /// Path A (the reference frame).
+        a: PathBuf,
+        /// Path B.
+        b: PathBuf,
+        /// Print one JSON object (cli.md) instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Hypotheses to report.
+        #[arg(long, default_value_t = 5)]
+        top: usize,
+        /// Input format of both files (auto, tum, kitti, euroc, xyz, gpx, csv).
+        #[arg(long, default_value = "auto")]
+        format: Format,
+        /// Input format of B, when it differs from A's.
+        #[arg(long)]
+        format_b: Option<Format>,
+    },
+    /// Places that path A revisits (loop-closure hypotheses).
+    Loops {
+        /// The path.
+        a: PathBuf,
+        /// Print one JSON object (cli.md) instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Loops to report.
+        #[arg(long, default_value_t = 10)]
+        top: usize,
+        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv).
+        #[arg(long, default_value = "auto")]
+        format: Format,
+        /// Turn the within-map drift prior off (shape and geometry only).
+        #[arg(long)]
+        no_prior: bool,
+    },
+    /// Writes A and B (mapped into A's frame by the best hypothesis) as one TUM file.
+    Merge {
+        /// Path A (the reference frame).
+        a: PathBuf,
+        /// Path B.
+        b: PathBuf,
+        /// Output TUM file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Also draw both paths and the common part (SVG or PNG by extension).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Input format of both files.
+        #[arg(long, default_value = "auto")]
+        format: Format,
+        /// Input format of B, when it differs from A's.
+        #[arg(long)]
+        format_b: Option<Format>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Match {
+            a,
+            b,
+            json,
+            top,
+            format,
+            format_b,
+        } => run_match(&a, &b, json, top, format, format_b.unwrap_or(format)),
+        Command::Loops {
+            a,
+            json,
+            top,
+            format,
+            no_prior,
+        } => run_loops(&a, json, top, format, no_prior),
+        Command::Merge {
+            a,
+            b,
+            output,
+            plot,
+            format,
+            format_b,
+        } => run_merge(
+            &a,
+            &b,
+            &output,
+            plot.as_deref(),
+            format,
+            format_b.unwrap_or(format),
+        ),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("turnprint: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// A spinner on stderr naming the running stage, only when stderr is a
+/// terminal (scripts and CI get clean output).
+struct Progress(ProgressBar);
+
+impl Progress {
+    fn new() -> Self {
+        let bar = if std::io::stderr().is_terminal() {
+            let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+            bar.set_style(
+                ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("valid template"),
+            );
+            bar.enable_steady_tick(Duration::from_millis(100));
+            bar
+        } else {
+            ProgressBar::hidden()
+        };
+        Progress(bar)
+    }
+
+    fn stage(&self, message: &str) {
+        self.0.set_message(message.to_string());
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        self.0.finish_and_clear();
+    }
+}
+
+fn read(path: &Path, format: Format) -> Result<Trajectory, String> {
+    read_trajectory(path, format).map_err(|e| e.to_string())
+}
+
+fn prepare(t: &Trajectory, config: &Config) -> Result<PreparedPath, String> {
+    PreparedPath::new(t, config).map_err(|e| e.to_string())
+}
+
+fn run_match(
+    a: &Path,
+    b: &Path,
+    json: bool,
+    top: usize,
+    fa: Format,
+    fb: Format,
+) -> Result<(), String> {
+    let progress = Progress::new();
+    progress.stage("reading");
+    let (ta, tb) = (read(a, fa)?, read(b, fb)?);
+    let config = Config {
+        top_k: top,
+        ..Config::for_matching()
+    };
+    progress.stage("preparing (plane, track, signature, segments)");
+    let (pa, pb) = (prepare(&ta, &config)?, prepare(&tb, &config)?);
+    progress.stage("matching");
+    let hypotheses = pipeline::match_prepared(&pa, &pb, &config);
+    drop(progress);
+    if json {
+        let out = json!({
+            "a": {"path": a.display().to_string(), "poses": ta.len()},
+            "b": {"path": b.display().to_string(), "poses": tb.len()},
+            "hypotheses": hypotheses.iter().map(Hypothesis::to_json).collect::<Vec<_>>(),
+        });
+        print_json(&out)
+    } else {
+        println!(
+            "A: {} ({} poses)   B: {} ({} poses)",
+            a.display(),
+            ta.len(),
+            b.display(),
+            tb.len()
+        );
+        print_table(&hypotheses, "A range", "B range");
+        Ok(())
+    }
+}
+
+fn run_loops(a: &Path, json: bool, top: usize, fa: Format, no_prior: bool) -> Result<(), String> {
+    let progress = Progress::new();
+    progress.stage("reading");
+    let ta = read(a, fa)?;
+    let mut config = Config {
+        top_k: top,
+        ..Config::for_loops()
+    };
+    if no_prior {
+        config.drift_prior = None;
+    }
+    progress.stage("preparing (plane, track, signature, segments)");
+    let pa = prepare(&ta, &config)?;
+    progress.stage("searching loops");
+    let loops = pipeline::find_loops_prepared(&pa, &config);
+    drop(progress);
+    if json {
+        let entries: Vec<serde_json::Value> = loops
+            .iter()
+            .map(|h| {
+                let j = h.to_json();
+                json!({
+                    "rank": j.rank, "score": j.score, "zncc": j.zncc, "reversed": j.reversed,
+                    "query_range": j.a_range, "match_range": j.b_range,
+                    "scale": j.scale, "rotation": j.rotation, "translation": j.translation,
+                    "rmse": j.rmse, "turning_deg": j.turning_deg,
+                })
+            })
+            .collect();
+        let out = json!({"path": a.display().to_string(), "poses": ta.len(), "loops": entries});
+        print_json(&out)
+    } else {
+        println!("{} ({} poses)", a.display(), ta.len());
+        print_table(&loops, "query", "match");
+        Ok(())
+    }
+}
+
+fn run_merge(
+    a: &Path,
+    b: &Path,
+    output: &Path,
+    plot: Option<&Path>,
+    fa: Format,
+    fb: Format,
+) -> Result<(), String> {
+    let progress = Progress::new();
+    progress.stage("reading");
+    let (ta, tb) = (read(a, fa)?, read(b, fb)?);
+    let config = Config::for_matching();
+    progress.stage("preparing");
+    let (pa, pb) = (prepare(&ta, &config)?, prepare(&tb, &config)?);
+    progress.stage("matching");
+    let hypotheses = pipeline::match_prepared(&pa, &pb, &config);
+    drop(progress);
+    let best = hypotheses.first().ok_or_else(|| {
+        format!(
+            "no overlap found between {} and {}",
+            a.display(),
+            b.display()
+        )
+    })?;
+    let merged = pipeline::merge(&ta, &tb, best);
+    write_tum(output, &merged).map_err(|e| e.to_string())?;
+    if let Some(fig) = plot {
+        let a_points = ta.positions();
+        let b_in_a: Vec<_> = tb.positions().iter().map(|p| best.transform(p)).collect();
+        turnprint::plot::plot_merge(fig, &a_points, &b_in_a, best).map_err(|e| e.to_string())?;
+    }
+    eprintln!(
+        "merged {} + {} poses into {} (score {:.3}, scale {:.4}, rmse {:.3}{})",
+        ta.len(),
+        tb.len(),
+        output.display(),
+        best.score,
+        best.scale,
+        best.rmse,
+        plot.map_or(String::new(), |p| format!(", figure {}", p.display()))
+    );
+    Ok(())
+}
+
+fn print_json(value: &serde_json::Value) -> Result<(), String> {
+    let mut out = std::io::stdout().lock();
+    serde_json::to_writer(&mut out, value).map_err(|e| e.to_string())?;
+    writeln!(out).map_err(|e| e.to_string())
+}
+
+fn print_table(hypotheses: &[Hypothesis], a_name: &str, b_name: &str) {
+    if hypotheses.is_empty() {
+        println!("no overlap found");
+        return;
+    }
+    println!(
+        "{:>4} {:>6} {:>6} {:>4} {:>15} {:>15} {:>10} {:>7} {:>9} {:>7}",
+        "rank", "score", "zncc", "rev", a_name, b_name, "scale", "rot°", "rmse", "turn°"
+    );
+    for h in hypotheses {
+        println!(
+            "{:>4} {:>6.3} {:>6.2} {:>4} {:>15} {:>15} {:>10.4} {:>7.1} {:>9.3} {:>7.0}",
+            h.rank,
+            h.score,
+            h.zncc,
+            if h.reversed { "yes" } else { "no" },
+            format!("{}-{}", h.a_range[0], h.a_range[1]),
+            format!("{}-{}", h.b_range[0], h.b_range[1]),
+            h.scale,
+            h.rotation_angle().to_degrees(),
+            h.rmse,
+            h.turning.to_degrees()
+        );
+    }
 }

@@ -63,6 +63,10 @@ pub struct QueryConfig {
     pub mirror: bool,
     /// Alignment lines closer than this many samples are pooled.
     pub line_tolerance: usize,
+    /// Queries turning less than this (radians of K) are not run.
+    pub min_turning: f64,
+    /// Turning of the sliding-window queries (radians of K).
+    pub window_turning: [f64; 3],
 }
 
 impl Default for QueryConfig {
@@ -74,61 +78,92 @@ impl Default for QueryConfig {
             min_zncc: 0.5,
             mirror: true,
             line_tolerance: 4,
+            min_turning: 30f64.to_radians(),
+            window_turning: [90f64.to_radians(), 180f64.to_radians(), 360f64.to_radians()],
         }
     }
 }
 
-/// Runs every query of `min..=max` consecutive segments of `query_sig`
-/// (boundaries `bounds`) against the correlator's signature and pools the
-/// peaks by alignment line. `keep` rejects trivial alignments (self-matches).
+/// Query ranges (inclusive signature samples): every run of
+/// `min..=max` consecutive segments (the paper's part-to-part queries), plus
+/// windows of fixed turning sliding along the path, so that a path with few
+/// segments, or an overlap shorter than two of its segments, still has
+/// queries that fit inside the common part. Queries turning less than
+/// `min_turning` carry too little shape to match and are left out.
+pub fn queries(bounds: &[usize], n: usize, dk: f64, config: &QueryConfig) -> Vec<[usize; 2]> {
+    let mut out = Vec::new();
+    let min_len = (config.min_turning / dk).ceil() as usize;
+    let n_seg = bounds.len().saturating_sub(1);
+    for first in 0..n_seg {
+        for k in config.min_segments..=config.max_segments {
+            if first + k > n_seg {
+                break;
+            }
+            let (q0, q1) = (bounds[first], bounds[first + k]);
+            if q1 - q0 >= min_len {
+                out.push([q0, q1]);
+            }
+        }
+    }
+    for &turning in &config.window_turning {
+        let len = (turning / dk).round() as usize;
+        let step = (len / 4).max(1);
+        if len < min_len || len >= n {
+            continue;
+        }
+        let mut q0 = 0;
+        while q0 + len < n {
+            out.push([q0, q0 + len]);
+            q0 += step;
+        }
+    }
+    out
+}
+
+/// Runs every query range of `query_sig` against the correlator's signature
+/// and pools the peaks by alignment line. `keep` rejects trivial alignments
+/// (self-matches).
 pub fn search(
     target: &mut Correlator,
     query_sig: &[f64],
-    bounds: &[usize],
+    query_ranges: &[[usize; 2]],
     config: &QueryConfig,
     keep: impl Fn(&Candidate) -> bool,
 ) -> Vec<Candidate> {
     let mut pooled: HashMap<(Orientation, i64), Vec<Candidate>> = HashMap::new();
-    let n_seg = bounds.len().saturating_sub(1);
-    for first in 0..n_seg {
-        for n in config.min_segments..=config.max_segments {
-            if first + n > n_seg {
-                break;
-            }
-            let (q0, q1) = (bounds[first], bounds[first + n]);
-            if q1 - q0 + 1 > target.len() || q1 <= q0 + 1 {
-                continue;
-            }
-            let scores = target.scores(&query_sig[q0..=q1]);
-            let len = (q1 - q0 + 1) as f64;
-            for (reversed, s) in [(false, &scores.forward), (true, &scores.reversed)] {
-                for sign in [1.0, -1.0] {
-                    if sign < 0.0 && !config.mirror {
+    for &[q0, q1] in query_ranges {
+        if q1 - q0 + 1 > target.len() || q1 <= q0 + 1 {
+            continue;
+        }
+        let scores = target.scores(&query_sig[q0..=q1]);
+        let len = (q1 - q0 + 1) as f64;
+        for (reversed, s) in [(false, &scores.forward), (true, &scores.reversed)] {
+            for sign in [1.0, -1.0] {
+                if sign < 0.0 && !config.mirror {
+                    continue;
+                }
+                for (d, z) in peaks(s, sign, config, (q1 - q0).div_ceil(2)) {
+                    let orientation = Orientation {
+                        reversed,
+                        mirrored: sign < 0.0,
+                    };
+                    let line = if reversed {
+                        (d + (q1 - q0)) as i64 + q0 as i64
+                    } else {
+                        d as i64 - q0 as i64
+                    };
+                    let cand = Candidate {
+                        orientation,
+                        query: [q0, q1],
+                        line,
+                        zncc: z,
+                        strength: z * z * len,
+                    };
+                    if !keep(&cand) {
                         continue;
                     }
-                    for (d, z) in peaks(s, sign, config, (q1 - q0).div_ceil(2)) {
-                        let orientation = Orientation {
-                            reversed,
-                            mirrored: sign < 0.0,
-                        };
-                        let line = if reversed {
-                            (d + (q1 - q0)) as i64 + q0 as i64
-                        } else {
-                            d as i64 - q0 as i64
-                        };
-                        let cand = Candidate {
-                            orientation,
-                            query: [q0, q1],
-                            line,
-                            zncc: z,
-                            strength: z * z * len,
-                        };
-                        if !keep(&cand) {
-                            continue;
-                        }
-                        let key = (orientation, line.div_euclid(config.line_tolerance as i64));
-                        pool(&mut pooled, key, cand);
-                    }
+                    let key = (orientation, line.div_euclid(config.line_tolerance as i64));
+                    pool(&mut pooled, key, cand);
                 }
             }
         }
@@ -136,6 +171,37 @@ pub fn search(
     let mut out: Vec<Candidate> = pooled.into_values().flatten().collect();
     out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
     out
+}
+
+impl Candidate {
+    /// The same alignment seen from the other side: the target's samples
+    /// become the query. `query_len` is the new query's signature length.
+    pub fn swapped(&self, query_len: usize) -> Option<Candidate> {
+        let (a0, a1) = (self.query[0] as i64, self.query[1] as i64);
+        // Target samples of the old query range become the new query range.
+        let (t0, t1) = {
+            let (x, y) = (self.target_of(self.query[0]), self.target_of(self.query[1]));
+            (x.min(y), x.max(y))
+        };
+        let (b0, b1) = (t0.max(0), t1.min(query_len as i64 - 1));
+        if b1 <= b0 + 1 {
+            return None;
+        }
+        // forward: t = a + line  <=>  a = t - line; reversed: t = line - a.
+        let line = if self.orientation.reversed {
+            self.line
+        } else {
+            -self.line
+        };
+        let _ = (a0, a1);
+        Some(Candidate {
+            orientation: self.orientation,
+            query: [b0 as usize, b1 as usize],
+            line,
+            zncc: self.zncc,
+            strength: self.strength,
+        })
+    }
 }
 
 /// Merges a vote into the pool entry of its line whose query range it

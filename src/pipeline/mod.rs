@@ -20,7 +20,7 @@ pub use prepare::PreparedPath;
 pub use verify::Verified;
 
 use crate::geometry::Similarity2;
-use crate::matching::candidates::search;
+use crate::matching::candidates::{queries, search};
 use crate::matching::Correlator;
 use crate::score::{loop_score, score};
 use crate::track::Track;
@@ -40,14 +40,31 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
         return Vec::new();
     }
     // B's queries against A's whole signature, pooled by alignment line.
-    let mut correlator = Correlator::new(&pa.signature.value, pb.signature.len());
-    let candidates = search(
-        &mut correlator,
-        &pb.signature.value,
-        &pb.bounds,
+    // B's queries against A's whole signature and A's against B's (a query
+    // longer than the other path, or than the common part, finds nothing),
+    // pooled by alignment line, A's votes turned into B-query form.
+    let (sa, sb) = (&pa.signature, &pb.signature);
+    let mut to_a = Correlator::new(&sa.value, sb.len());
+    let mut candidates = search(
+        &mut to_a,
+        &sb.value,
+        &queries(&pb.bounds, sb.len(), sb.dk, &config.query),
         &config.query,
         |_| true,
     );
+    let mut to_b = Correlator::new(&sb.value, sa.len());
+    candidates.extend(
+        search(
+            &mut to_b,
+            &sa.value,
+            &queries(&pa.bounds, sa.len(), sa.dk, &config.query),
+            &config.query,
+            |_| true,
+        )
+        .iter()
+        .filter_map(|c| c.swapped(sb.len())),
+    );
+    candidates.sort_by(|x, y| y.strength.total_cmp(&x.strength));
     // Geometry decides, strongest candidates first.
     let xy = [pb.points(false), pb.points(true)];
     let mut hypotheses = Vec::new();
@@ -90,7 +107,8 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     let mut query = config.query;
     query.mirror = false;
     let mut correlator = Correlator::new(&sig.value, sig.len());
-    let candidates = search(&mut correlator, &sig.value, &pa.bounds, &query, clear);
+    let ranges = queries(&pa.bounds, sig.len(), sig.dk, &query);
+    let candidates = search(&mut correlator, &sig.value, &ranges, &query, clear);
     let xy = pa.points(false);
     let track = &pa.track;
     let mut verified = Vec::new();
