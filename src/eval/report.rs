@@ -76,6 +76,8 @@ pub struct LoopRow {
     pub source: String,
     pub runs: usize,
     pub events: usize,
+    /// Median over runs of the revisit separation (median input steps).
+    pub revisit_separation_steps: f64,
     pub turnprint: LoopFigures,
     pub naive: LoopFigures,
 }
@@ -228,6 +230,11 @@ impl Report {
                 source: source.to_string(),
                 runs: tp.len(),
                 events: tp.iter().map(|r| r.events).sum(),
+                revisit_separation_steps: median(
+                    &tp.iter()
+                        .map(|r| r.revisit_separation_steps)
+                        .collect::<Vec<_>>(),
+                ),
                 turnprint: loop_figures(&tp),
                 naive: loop_figures(&nv),
             }
@@ -371,7 +378,9 @@ impl Report {
              random walk {} deg/sqrt(m) and log-scale random walk {} /sqrt(m), knots every {} m, integrated \
              over the relative motions. Naive baseline: nearest pose >= {} frames earlier in the input's \
              frame within {} median steps, hits grouped (gaps <= {}, match jumps <= {}), ranked by mean \
-             distance. Every input is under a random similarity.\n",
+             distance. Every input is under a random similarity. Revisit separation: median, over ground-truth \
+             revisits, of the input-frame distance to the revisited pose in median input steps (what the naive \
+             search sees; its threshold is {}).\n",
             events.join(", "),
             d.heading_deg_per_sqrt_len,
             d.log_scale_per_sqrt_len,
@@ -379,22 +388,27 @@ impl Report {
             l.naive.min_gap,
             l.naive.threshold_steps,
             l.naive.max_gap,
-            l.naive.max_match_jump
+            l.naive.max_match_jump,
+            l.naive.threshold_steps
         );
         let _ = writeln!(
             s,
-            "| sequence | source | runs | events | rank-1 correct: turnprint | naive | events covered (top 10): turnprint | naive | precision of top 10: turnprint | naive | time per run: turnprint (s) |"
+            "| sequence | source | runs | events | revisit separation (steps) | rank-1 correct: turnprint | naive | events covered (top 10): turnprint | naive | precision of top 10: turnprint | naive | time per run: turnprint (s) |"
         );
-        let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(
+            s,
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        );
         for r in &l.rows {
             let bold = if r.source == "drift" { "**" } else { "" };
             let _ = writeln!(
                 s,
-                "| {} | {b}{}{b} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |",
+                "| {} | {b}{}{b} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |",
                 r.sequence,
                 r.source,
                 r.runs,
                 r.events,
+                fmt_num(r.revisit_separation_steps, 1),
                 fmt_pct(r.turnprint.rank1_correct_pct),
                 fmt_pct(r.naive.rank1_correct_pct),
                 fmt_pct(r.turnprint.events_covered_pct),
