@@ -170,8 +170,16 @@ mod tests {
         assert_eq!(third.len(), 2, "{loops:?}");
         let mut matched: Vec<[usize; 2]> = third.iter().map(|l| l.matched).collect();
         matched.sort();
-        assert!(matched[0][0] <= 2 && matched[0][1] >= 197 && matched[0][1] < 200, "{loops:?}");
-        assert!(matched[1][0] <= 402 && matched[1][1] >= 597 && matched[1][1] < 600, "{loops:?}");
-        assert!(third.iter().all(|l| l.query[0] <= 1002 && l.query[1] >= 1197));
+        assert!(
+            matched[0][0] <= 2 && matched[0][1] >= 197 && matched[0][1] < 200,
+            "{loops:?}"
+        );
+        assert!(
+            matched[1][0] <= 402 && matched[1][1] >= 597 && matched[1][1] < 600,
+            "{loops:?}"
+        );
+        assert!(third
+            .iter()
+            .all(|l| l.query[0] <= 1002 && l.query[1] >= 1197));
     }
 }
