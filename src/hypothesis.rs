@@ -33,6 +33,10 @@ pub struct Hypothesis {
     pub rmse: f64,
     /// Total turning (radians) inside the common part: the evidence.
     pub turning: f64,
+    /// Matched length along A (A's units).
+    pub length: f64,
+    /// Matched length along A over matched length along B times the scale.
+    pub length_ratio: f64,
     /// Matched pose pairs (a index, b index) used for the final fit.
     pub correspondences: Vec<(usize, usize)>,
 }

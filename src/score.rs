@@ -24,9 +24,9 @@ pub struct ScoreConfig {
 impl Default for ScoreConfig {
     fn default() -> Self {
         ScoreConfig {
-            turning_scale: std::f64::consts::FRAC_PI_2,
-            residual_scale: 0.015,
-            length_log_tolerance: 0.15,
+            turning_scale: 1.5 * std::f64::consts::PI,
+            residual_scale: 0.002,
+            length_log_tolerance: 0.3,
         }
     }
 }

@@ -17,6 +17,8 @@ pub struct GrowConfig {
     /// A mapped query point is on the target when closer than this fraction
     /// of the matched length.
     pub tolerance: f64,
+    /// Tightest tolerance, as a fraction of the matched length.
+    pub min_tolerance: f64,
     /// Grow/refit rounds.
     pub rounds: usize,
     /// Points used per seed (the query is strided to about this many).
@@ -29,7 +31,8 @@ impl Default for GrowConfig {
     fn default() -> Self {
         GrowConfig {
             tolerance: 0.03,
-            rounds: 4,
+            min_tolerance: 0.004,
+            rounds: 8,
             points_per_seed: 120,
             max_misses: 3,
         }
@@ -88,9 +91,14 @@ pub fn grow_and_refit(
     let mut sim = a_T_b;
     let mut range = [seed[0], seed[1].min(n - 1)];
     let mut result = None;
+    let mut last_rmse = f64::INFINITY;
     for _ in 0..config.rounds {
         let length = sim.scale * (query.s[range[1]] - query.s[range[0]]);
-        let tol = config.tolerance * length;
+        // The first round accepts the seed's rough fit; later rounds tighten
+        // to a few times the residual reached, so the fit converges like ICP
+        // instead of averaging over a wide band.
+        let tol =
+            (config.tolerance * length).min((4.0 * last_rmse).max(config.min_tolerance * length));
         if !(tol > 0.0 && tol.is_finite()) {
             return result;
         }
@@ -181,6 +189,7 @@ pub fn grow_and_refit(
             .map(|(a, b)| (sim.apply(b) - a).norm())
             .collect();
         let rmse = (residuals.iter().map(|d| d * d).sum::<f64>() / residuals.len() as f64).sqrt();
+        last_rmse = rmse;
         let (tmin, tmax) = matched
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| {

@@ -26,8 +26,10 @@ pub struct Orientation {
 pub struct Candidate {
     /// Direction and side.
     pub orientation: Orientation,
-    /// Inclusive range of query signature samples.
+    /// Inclusive range of query signature samples (union of the votes).
     pub query: [usize; 2],
+    /// The best single vote's query range: the cleanest seed for alignment.
+    pub seed: [usize; 2],
     /// The alignment line: target sample = `line + b` (forward) or
     /// `line - b` (reversed) for query sample `b`.
     pub line: i64,
@@ -155,6 +157,7 @@ pub fn search(
                     let cand = Candidate {
                         orientation,
                         query: [q0, q1],
+                        seed: [q0, q1],
                         line,
                         zncc: z,
                         strength: z * z * len,
@@ -194,9 +197,18 @@ impl Candidate {
             -self.line
         };
         let _ = (a0, a1);
+        let (s0, s1) = {
+            let (x, y) = (self.target_of(self.seed[0]), self.target_of(self.seed[1]));
+            (x.min(y).max(b0), x.max(y).min(b1))
+        };
         Some(Candidate {
             orientation: self.orientation,
             query: [b0 as usize, b1 as usize],
+            seed: if s1 > s0 {
+                [s0 as usize, s1 as usize]
+            } else {
+                [b0 as usize, b1 as usize]
+            },
             line,
             zncc: self.zncc,
             strength: self.strength,
@@ -220,9 +232,13 @@ fn pool(
         Some(p) => {
             p.strength += cand.strength;
             p.query = [p.query[0].min(cand.query[0]), p.query[1].max(cand.query[1])];
-            if cand.zncc > p.zncc {
+            // The best vote: highest ZNCC, longer queries winning near-ties.
+            if cand.zncc * (cand.query[1] - cand.query[0]) as f64
+                > p.zncc * (p.seed[1] - p.seed[0]) as f64
+            {
                 p.zncc = cand.zncc;
                 p.line = cand.line;
+                p.seed = cand.query;
             }
         }
     }

@@ -74,6 +74,9 @@ impl Config {
             ..Config::default()
         };
         c.query.mirror = false;
+        // Within one map the drift prior tells look-alikes apart, and a long
+        // revisit bent by drift fits one similarity less tightly.
+        c.score.residual_scale = 0.006;
         c
     }
 }

@@ -70,11 +70,11 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
     let mut hypotheses = Vec::new();
     for cand in candidates.iter().take(config.max_candidates) {
         let mirrored = cand.orientation.mirrored;
-        let Some(v) = verify::verify(pa, pb, &xy[mirrored as usize], cand, config, &|_, _| true)
+        let Some((v, s)) =
+            verify::verify_best(pa, pb, &xy[mirrored as usize], cand, config, &|_, _| true)
         else {
             continue;
         };
-        let s = score(&v.evidence, &config.score);
         hypotheses.push(to_hypothesis(pa, pb, &v, s, false));
     }
     rank::rank(hypotheses, config.top_k)
@@ -115,9 +115,9 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     // Shape candidates: grown points stay away from themselves along the
     // path by at least the seed's own length.
     for cand in candidates.iter().take(config.max_candidates) {
-        let seed_len = sig.s[cand.query[1]] - sig.s[cand.query[0]];
+        let seed_len = sig.s[cand.seed[1]] - sig.s[cand.seed[0]];
         let allowed = |g: usize, v: f64| (track.s[g] - Track::interp(&track.s, v)).abs() > seed_len;
-        verified.extend(verify::verify(pa, pa, &xy, cand, config, &allowed));
+        verified.extend(verify::verify_best(pa, pa, &xy, cand, config, &allowed).map(|(v, _)| v));
     }
     // Proximity seeds: the map's own frame, starting from the identity.
     for seed in proximity::proximity_seeds(pa) {
@@ -217,6 +217,8 @@ fn to_hypothesis(
         translation: a_t_b.translation,
         rmse: o.rmse,
         turning: v.evidence.turning,
+        length: o.target_length.max(o.query_length),
+        length_ratio: v.evidence.length_ratio,
         correspondences,
     }
 }

@@ -44,7 +44,7 @@ pub fn verify(
     let (ts, qs) = (&target.signature, &query.signature);
     let mut pairs = Vec::new();
     let (mut s_min, mut s_max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for b in cand.query[0]..=cand.query[1] {
+    for b in cand.seed[0]..=cand.seed[1] {
         let a = cand.target_of(b);
         if a < 0 || a as usize >= ts.len() {
             continue;
@@ -61,8 +61,8 @@ pub fn verify(
     let mut rng = SplitMix(0x7475_726e ^ (cand.line as u64) ^ ((cand.query[0] as u64) << 20));
     let (a_t_b, _) = ransac_similarity(&pairs, threshold, config.ransac_iterations, &mut rng)?;
     let seed = [
-        qs.grid[cand.query[0]].floor() as usize,
-        (qs.grid[cand.query[1]].ceil() as usize).min(query_xy.len() - 1),
+        qs.grid[cand.seed[0]].floor() as usize,
+        (qs.grid[cand.seed[1]].ceil() as usize).min(query_xy.len() - 1),
     ];
     let overlap = grow_and_refit(
         &target.track,
@@ -75,6 +75,38 @@ pub fn verify(
         allowed,
     )?;
     Some(finish(query, overlap, cand.clone(), cand.zncc))
+}
+
+/// Verifies a pooled candidate from its best vote and, when the votes span
+/// more, from their union too (a long union gives context that tells look-
+/// alikes apart, a single clean vote gives a better seed): the better
+/// score wins.
+pub fn verify_best(
+    target: &PreparedPath,
+    query: &PreparedPath,
+    query_xy: &[Vector2<f64>],
+    cand: &Candidate,
+    config: &Config,
+    allowed: &dyn Fn(usize, f64) -> bool,
+) -> Option<(Verified, f64)> {
+    let scored = |c: &Candidate| {
+        verify(target, query, query_xy, c, config, allowed).map(|v| {
+            let s = crate::score::score(&v.evidence, &config.score);
+            (v, s)
+        })
+    };
+    let best = scored(cand);
+    if cand.seed == cand.query {
+        return best;
+    }
+    let union = Candidate {
+        seed: cand.query,
+        ..cand.clone()
+    };
+    match (best, scored(&union)) {
+        (Some(a), Some(b)) => Some(if b.1 > a.1 { b } else { a }),
+        (a, b) => a.or(b),
+    }
 }
 
 /// Verifies a seed that already has a similarity (a proximity seed within
@@ -107,6 +139,7 @@ pub fn verify_seeded(
     let cand = Candidate {
         orientation: Orientation { reversed, mirrored },
         query: [0, 0],
+        seed: [0, 0],
         line: 0,
         zncc,
         strength: 0.0,
