@@ -21,3 +21,5 @@ pub mod hypothesis;
 pub mod pipeline;
 
 pub use hypothesis::Hypothesis;
+#[cfg(feature = "ipc")]
+pub mod ipc;
