@@ -154,7 +154,7 @@ struct Ports {
 }
 
 /// The loop's state besides the verifier.
-struct Loop<'a, V: FrameVerifier> {
+struct Loop<'a, V: FrameVerifier + ?Sized> {
     verifier: &'a mut V,
     ports: Ports,
     counters: Arc<Counters>,
@@ -164,7 +164,7 @@ struct Loop<'a, V: FrameVerifier> {
     last_seq: HashMap<UniquePublisherId, u64>,
 }
 
-impl<V: FrameVerifier> Loop<'_, V> {
+impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
     /// Handles everything queued: all keyframes before each candidate.
     fn drain(&mut self) -> Result<(), IpcError> {
         loop {
@@ -356,7 +356,7 @@ fn heartbeat(
 ///
 /// Stale resources of dead processes (a verifier killed with `kill -9`) are
 /// removed first, so a restarted verifier takes over the same services.
-pub fn run<V: FrameVerifier>(
+pub fn run<V: FrameVerifier + ?Sized>(
     config: &ServerConfig,
     verifier: &mut V,
 ) -> Result<VerifierStatus, IpcError> {
