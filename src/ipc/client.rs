@@ -260,6 +260,9 @@ pub struct VerifierClient {
     tag: u64,
     counter: u32,
     keyframe_seq: u64,
+    /// Verifier instance heard at the last keyframe, and the first keyframe
+    /// `seq` sent while hearing it.
+    keyframe_epoch: (u64, u64),
     pending: HashMap<u64, Pending>,
     ready: VecDeque<Outcome>,
     liveness: Liveness,
@@ -334,6 +337,7 @@ impl VerifierClient {
             tag: random_u64() << 32,
             counter: 0,
             keyframe_seq: 0,
+            keyframe_epoch: (0, 0),
             pending: HashMap::new(),
             ready: VecDeque::new(),
             liveness: Liveness::Unknown {
@@ -415,11 +419,17 @@ impl VerifierClient {
             }
         };
         self.keyframe_seq += 1;
+        let heard = self.verifier_instance().unwrap_or(0);
+        if heard != self.keyframe_epoch.0 {
+            self.keyframe_epoch = (heard, self.keyframe_seq);
+        }
         *sample.user_header_mut() = KeyframeHeader {
             version: IPC_VERSION,
             pixel_format: pixel_format::GRAY8,
             keyframe_id,
             seq: self.keyframe_seq,
+            verifier_instance: heard,
+            instance_first_seq: self.keyframe_epoch.1,
             timestamp,
             camera: *camera,
             width: camera.width,

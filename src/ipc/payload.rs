@@ -77,6 +77,12 @@ pub struct KeyframeHeader {
     /// Per-publisher sequence number, +1 per keyframe: gaps are keyframes the
     /// verifier never saw (dropped by the bounded queue).
     pub seq: u64,
+    /// The verifier instance the publisher had heard when it sent this
+    /// keyframe (0: none). Only then is the verifier sure it was connected.
+    pub verifier_instance: u64,
+    /// First `seq` the publisher sent while hearing `verifier_instance`: the
+    /// verifier counts gaps from there.
+    pub instance_first_seq: u64,
     /// Capture time in seconds (the caller's clock).
     pub timestamp: f64,
     /// Camera model and intrinsics of this image.

@@ -200,10 +200,17 @@ impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
             Counters::bump(&c.bad_messages);
             return;
         }
-        if let Some(last) = self.last_seq.insert(origin, h.seq) {
-            if h.seq > last + 1 {
+        // Gaps count as drops only among keyframes sent after the publisher
+        // heard this instance: earlier ones may predate our subscriber.
+        let last = self.last_seq.insert(origin, h.seq);
+        if h.verifier_instance == self.instance {
+            let base = match last {
+                Some(l) if l >= h.instance_first_seq => l,
+                _ => h.instance_first_seq.saturating_sub(1),
+            };
+            if h.seq > base + 1 {
                 c.keyframes_dropped_queue
-                    .fetch_add(h.seq - last - 1, Ordering::Relaxed);
+                    .fetch_add(h.seq - base - 1, Ordering::Relaxed);
             }
         }
         let needed = h.stride as usize * h.height as usize;

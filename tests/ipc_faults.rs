@@ -1,0 +1,141 @@
+//! Faults between the detector and the real `turnprint-verifier` process:
+//! `kill -9` mid-run, restart under the same prefix, and a keyframe flood.
+#![cfg(feature = "verifier")]
+
+mod ipc_support;
+
+use std::collections::{HashMap, HashSet};
+use std::time::{Duration, Instant};
+
+use ipc_support::{client, collect, kitti06, kitti_camera, unique_prefix, Gray, VerifierProcess};
+use turnprint::ipc::{Candidate, ExpiryReason, Outcome, VerifierClient};
+
+fn publish_pair(c: &mut VerifierClient, a: &Gray, b: &Gray) {
+    let camera = kitti_camera(a.width, a.height);
+    c.publish_keyframe(12, 1.2, &camera, &a.pixels).unwrap();
+    c.publish_keyframe(13, 1.3, &camera, &b.pixels).unwrap();
+}
+
+/// Counts outcomes by kind and checks each id ended exactly once.
+fn tally(ids: &[u64], outcomes: &[Outcome]) -> HashMap<String, usize> {
+    let mut seen = HashSet::new();
+    let mut kinds = HashMap::new();
+    for o in outcomes {
+        assert!(seen.insert(o.id()), "candidate {} ended twice", o.id());
+        let kind = match o {
+            Outcome::Confirmed { .. } => "confirmed".to_string(),
+            Outcome::Rejected { reason, .. } => format!("rejected: {reason}"),
+            Outcome::Expired { reason, .. } => format!("expired: {reason}"),
+        };
+        *kinds.entry(kind).or_insert(0) += 1;
+    }
+    let expected: HashSet<u64> = ids.iter().copied().collect();
+    assert_eq!(seen, expected, "every candidate ends, none vanishes");
+    kinds
+}
+
+#[test]
+fn kill_9_expires_outstanding_and_a_restarted_verifier_resumes() {
+    let prefix = unique_prefix("kill9");
+    let (a, b) = (kitti06(12), kitti06(13));
+    let mut verifier = VerifierProcess::start(&prefix, &[]);
+    // Long candidate timeout: what expires here expires because the verifier died.
+    let mut c = client(&prefix, Duration::from_secs(60), Duration::from_millis(300));
+    assert!(c.wait_for_verifier(Duration::from_secs(20)), "stderr:\n{}", verifier.stderr());
+    publish_pair(&mut c, &a, &b);
+
+    let ids: Vec<u64> = (0..300).map(|_| c.submit(Candidate::between(13, 12))).collect();
+    // Mid-run: some verdicts are in, most candidates are still queued.
+    let mut outcomes = collect(&mut c, 1, Duration::from_secs(20));
+    assert!(!outcomes.is_empty(), "no verdict; stderr:\n{}", verifier.stderr());
+    verifier.kill9();
+    let killed_at = Instant::now();
+    outcomes.extend(collect(&mut c, ids.len() - outcomes.len(), Duration::from_secs(5)));
+    assert!(killed_at.elapsed() < Duration::from_secs(2), "expiry took {:?}", killed_at.elapsed());
+    let kinds = tally(&ids, &outcomes);
+    let gone = kinds.get("expired: verifier gone").copied().unwrap_or(0);
+    assert!(gone > 0, "{kinds:?}");
+    assert!(kinds.get("confirmed").copied().unwrap_or(0) > 0, "{kinds:?}");
+    assert_eq!(c.outstanding(), 0);
+
+    // The detector keeps working with the verifier down.
+    let lone = c.submit(Candidate::between(13, 12));
+    let now = c.poll();
+    assert!(matches!(now.as_slice(), [Outcome::Expired { id, reason: ExpiryReason::VerifierAbsent, .. }] if *id == lone));
+
+    // A new verifier under the same prefix comes up over the dead one's
+    // leftovers and answers, without restarting the detector.
+    let verifier2 = VerifierProcess::start(&prefix, &[]);
+    assert!(c.wait_for_verifier(Duration::from_secs(20)), "restart; stderr:\n{}", verifier2.stderr());
+    publish_pair(&mut c, &a, &b);
+    let fresh: Vec<u64> = (0..3).map(|_| c.submit(Candidate::between(13, 12))).collect();
+    let after = collect(&mut c, fresh.len(), Duration::from_secs(20));
+    let kinds = tally(&fresh, &after);
+    assert_eq!(kinds.get("confirmed"), Some(&3), "{kinds:?}; stderr:\n{}", verifier2.stderr());
+}
+
+#[test]
+fn a_quick_restart_expires_the_old_instances_candidates_as_restarted() {
+    let prefix = unique_prefix("restart");
+    let (a, b) = (kitti06(12), kitti06(13));
+    let mut verifier = VerifierProcess::start(&prefix, &[]);
+    // Liveness longer than the restart: the client sees a new instance, not silence.
+    let mut c = client(&prefix, Duration::from_secs(60), Duration::from_secs(10));
+    assert!(c.wait_for_verifier(Duration::from_secs(20)));
+    let first = c.verifier_instance().unwrap();
+    publish_pair(&mut c, &a, &b);
+    let ids: Vec<u64> = (0..300).map(|_| c.submit(Candidate::between(13, 12))).collect();
+    let mut outcomes = collect(&mut c, 1, Duration::from_secs(20));
+    verifier.kill9();
+    let _verifier2 = VerifierProcess::start(&prefix, &[]);
+    outcomes.extend(collect(&mut c, ids.len() - outcomes.len(), Duration::from_secs(20)));
+    let kinds = tally(&ids, &outcomes);
+    assert!(kinds.get("expired: verifier restarted").copied().unwrap_or(0) > 0, "{kinds:?}");
+    let second = c.verifier_instance().expect("new instance heard");
+    assert_ne!(first, second);
+}
+
+#[test]
+fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
+    let prefix = unique_prefix("flood");
+    let frames = [kitti06(12), kitti06(13)];
+    let camera = kitti_camera(frames[0].width, frames[0].height);
+    let cap_mb = 2u64;
+    let verifier = VerifierProcess::start(&prefix, &["--max-memory-mb", &cap_mb.to_string()]);
+    let mut c = client(&prefix, Duration::from_secs(30), Duration::from_secs(2));
+    assert!(c.wait_for_verifier(Duration::from_secs(20)), "stderr:\n{}", verifier.stderr());
+    let rss_before = verifier.rss_bytes().unwrap();
+
+    // 1000 real images (450 MB) as fast as the publisher can write them.
+    let n = 1000u64;
+    let mut rss_peak = rss_before;
+    for k in 0..n {
+        let img = &frames[(k % 2) as usize];
+        c.publish_keyframe(k, k as f64 * 0.1, &camera, &img.pixels).unwrap();
+        if k % 50 == 0 {
+            rss_peak = rss_peak.max(verifier.rss_bytes().unwrap());
+        }
+    }
+    // Everything published is accounted for: processed or counted as dropped.
+    let end = Instant::now() + Duration::from_secs(30);
+    let status = loop {
+        c.wait(Duration::from_millis(100));
+        rss_peak = rss_peak.max(verifier.rss_bytes().unwrap());
+        let s = *c.verifier_status().unwrap();
+        if s.keyframes_received + s.keyframes_dropped_queue == n || Instant::now() > end {
+            break s;
+        }
+    };
+    eprintln!("flood: {status:?}, rss before {rss_before} peak {rss_peak}");
+    assert_eq!(status.keyframes_received + status.keyframes_dropped_queue, n, "{status:?}");
+    assert!(status.keyframes_dropped_queue > n / 2, "a flood must overflow the queue: {status:?}");
+    assert!(status.memory_bytes <= cap_mb << 20, "{status:?}");
+    assert_eq!(c.stats().keyframes_sent, n);
+    assert_eq!(c.stats().keyframes_failed, 0);
+    // Resident memory grows by the bounded queue and the capped features,
+    // not with the 450 MB that went through.
+    assert!(rss_peak < rss_before + (64 << 20), "rss {rss_before} -> {rss_peak}");
+    // The counts are reported on stderr too.
+    std::thread::sleep(Duration::from_millis(1200));
+    assert!(verifier.stderr().contains("dropped (queue)"), "{}", verifier.stderr());
+}
