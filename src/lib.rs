@@ -21,3 +21,7 @@ pub mod hypothesis;
 pub mod pipeline;
 
 pub use hypothesis::Hypothesis;
+#[cfg(feature = "render")]
+pub mod render;
+#[cfg(any(feature = "render", feature = "verifier"))]
+pub mod vision;
