@@ -23,3 +23,7 @@ pub mod pipeline;
 pub use hypothesis::Hypothesis;
 #[cfg(feature = "ipc")]
 pub mod ipc;
+#[cfg(feature = "render")]
+pub mod render;
+#[cfg(any(feature = "render", feature = "verifier"))]
+pub mod vision;
