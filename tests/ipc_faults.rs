@@ -8,7 +8,7 @@ use std::collections::{HashMap, HashSet};
 use std::time::{Duration, Instant};
 
 use ipc_support::{client, collect, kitti06, kitti_camera, unique_prefix, Gray, VerifierProcess};
-use turnprint::ipc::{Candidate, ExpiryReason, Outcome, VerifierClient};
+use turnprint::ipc::{Candidate, ExpiryReason, Outcome, VerifierClient, VerifierStatus};
 
 fn publish_pair(c: &mut VerifierClient, a: &Gray, b: &Gray) {
     let camera = kitti_camera(a.width, a.height);
@@ -53,6 +53,7 @@ fn kill_9_expires_outstanding_and_a_restarted_verifier_resumes() {
     outcomes.extend(collect(&mut c, ids.len() - outcomes.len(), Duration::from_secs(5)));
     assert!(killed_at.elapsed() < Duration::from_secs(2), "expiry took {:?}", killed_at.elapsed());
     let kinds = tally(&ids, &outcomes);
+    eprintln!("kill -9 after the first verdict: {kinds:?}");
     let gone = kinds.get("expired: verifier gone").copied().unwrap_or(0);
     assert!(gone > 0, "{kinds:?}");
     assert!(kinds.get("confirmed").copied().unwrap_or(0) > 0, "{kinds:?}");
@@ -90,9 +91,22 @@ fn a_quick_restart_expires_the_old_instances_candidates_as_restarted() {
     let _verifier2 = VerifierProcess::start(&prefix, &[]);
     outcomes.extend(collect(&mut c, ids.len() - outcomes.len(), Duration::from_secs(20)));
     let kinds = tally(&ids, &outcomes);
+    eprintln!("quick restart: {kinds:?}");
     assert!(kinds.get("expired: verifier restarted").copied().unwrap_or(0) > 0, "{kinds:?}");
     let second = c.verifier_instance().expect("new instance heard");
     assert_ne!(first, second);
+}
+
+/// Waits until the verifier's heartbeat accounts for `n` keyframes.
+fn settle(c: &mut VerifierClient, n: u64, limit: Duration) -> VerifierStatus {
+    let end = Instant::now() + limit;
+    loop {
+        c.wait(Duration::from_millis(50));
+        let s = *c.verifier_status().expect("status heartbeat");
+        if s.keyframes_received + s.keyframes_dropped_queue >= n || Instant::now() > end {
+            return s;
+        }
+    }
 }
 
 #[test]
@@ -100,40 +114,46 @@ fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
     let prefix = unique_prefix("flood");
     let frames = [kitti06(12), kitti06(13)];
     let camera = kitti_camera(frames[0].width, frames[0].height);
-    let cap_mb = 2u64;
-    let verifier = VerifierProcess::start(&prefix, &["--max-memory-mb", &cap_mb.to_string()]);
+    let cap = 1u64 << 20;
+    let verifier = VerifierProcess::start(&prefix, &["--max-memory-mb", "1"]);
     let mut c = client(&prefix, Duration::from_secs(30), Duration::from_secs(2));
     assert!(c.wait_for_verifier(Duration::from_secs(20)), "stderr:\n{}", verifier.stderr());
     let rss_before = verifier.rss_bytes().unwrap();
-
-    // 1000 real images (450 MB) as fast as the publisher can write them.
-    let n = 1000u64;
     let mut rss_peak = rss_before;
-    for k in 0..n {
+
+    // A flood: 1000 real images (450 MB) as fast as the publisher writes them.
+    let flood = 1000u64;
+    for k in 0..flood {
         let img = &frames[(k % 2) as usize];
         c.publish_keyframe(k, k as f64 * 0.1, &camera, &img.pixels).unwrap();
         if k % 50 == 0 {
             rss_peak = rss_peak.max(verifier.rss_bytes().unwrap());
         }
     }
+    let after_flood = settle(&mut c, flood, Duration::from_secs(30));
+    eprintln!("after the flood: {after_flood:?}");
     // Everything published is accounted for: processed or counted as dropped.
-    let end = Instant::now() + Duration::from_secs(30);
-    let status = loop {
-        c.wait(Duration::from_millis(100));
+    assert_eq!(after_flood.keyframes_received + after_flood.keyframes_dropped_queue, flood);
+    assert!(after_flood.keyframes_dropped_queue > flood / 2, "{after_flood:?}");
+
+    // Paced: each keyframe processed, 40 x ~80 KB of features through a 1 MB cap.
+    for k in flood..flood + 40 {
+        let img = &frames[(k % 2) as usize];
+        c.publish_keyframe(k, k as f64 * 0.1, &camera, &img.pixels).unwrap();
+        let s = settle(&mut c, k + 1, Duration::from_secs(10));
+        assert!(s.memory_bytes <= cap, "{s:?}");
         rss_peak = rss_peak.max(verifier.rss_bytes().unwrap());
-        let s = *c.verifier_status().unwrap();
-        if s.keyframes_received + s.keyframes_dropped_queue == n || Instant::now() > end {
-            break s;
-        }
-    };
-    eprintln!("flood: {status:?}, rss before {rss_before} peak {rss_peak}");
-    assert_eq!(status.keyframes_received + status.keyframes_dropped_queue, n, "{status:?}");
-    assert!(status.keyframes_dropped_queue > n / 2, "a flood must overflow the queue: {status:?}");
-    assert!(status.memory_bytes <= cap_mb << 20, "{status:?}");
-    assert_eq!(c.stats().keyframes_sent, n);
+    }
+    let status = *c.verifier_status().unwrap();
+    eprintln!("after pacing: {status:?}, rss before {rss_before} peak {rss_peak}");
+    assert_eq!(status.keyframes_received + status.keyframes_dropped_queue, flood + 40);
+    assert!(status.keyframes_added >= 40, "{status:?}");
+    // The features filled the cap (so old ones were evicted) and stayed under it.
+    assert!(status.memory_bytes > cap / 2 && status.memory_bytes <= cap, "{status:?}");
+    assert_eq!(c.stats().keyframes_sent, flood + 40);
     assert_eq!(c.stats().keyframes_failed, 0);
     // Resident memory grows by the bounded queue and the capped features,
-    // not with the 450 MB that went through.
+    // not with the 470 MB that went through.
     assert!(rss_peak < rss_before + (64 << 20), "rss {rss_before} -> {rss_peak}");
     // The counts are reported on stderr too.
     std::thread::sleep(Duration::from_millis(1200));

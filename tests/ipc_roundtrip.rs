@@ -36,8 +36,8 @@ fn overlapping_frames_are_confirmed_and_unknown_ones_rejected() {
         if o.id() == same_place {
             let Outcome::Confirmed {
                 candidate,
-                query_R_match,
-                translation_direction,
+                match_R_query,
+                match_t_query,
                 inliers,
                 ..
             } = o
@@ -47,10 +47,10 @@ fn overlapping_frames_are_confirmed_and_unknown_ones_rejected() {
             assert_eq!(*candidate, hint, "the caller gets its candidate back");
             assert!(*inliers >= 30, "{inliers} inliers");
             // One frame apart at ~12 m/s: almost no rotation, motion along the optical axis.
-            let angle = ((query_R_match.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
+            let angle = ((match_R_query.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
             assert!(angle.to_degrees() < 3.0, "rotation {:.2} deg", angle.to_degrees());
-            assert!((translation_direction.norm() - 1.0).abs() < 1e-6);
-            assert!(translation_direction.z.abs() > 0.9, "direction {translation_direction:?}");
+            assert!((match_t_query.norm() - 1.0).abs() < 1e-6);
+            assert!(match_t_query.z.abs() > 0.9, "direction {match_t_query:?}");
         } else {
             assert_eq!(o.id(), unknown);
             let Outcome::Rejected { reason_code, .. } = o else {

@@ -14,6 +14,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use turnprint::ipc::server::{self, FrameVerifier, ServerConfig};
+use turnprint::vision::{OrbVerifier, VerifierParams};
 
 const USAGE: &str = "usage: turnprint-verifier --prefix NAME [--max-memory-mb N] \
                      [--heartbeat-ms N] [--report-secs N]";
@@ -62,10 +63,14 @@ fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
     Ok(Args { server })
 }
 
-/// The vision code behind the loop.
+/// The vision code behind the loop: ORB features kept under the same memory
+/// cap the loop enforces (least recently used keyframes go first).
 fn vision_verifier(args: &Args) -> Result<Box<dyn FrameVerifier>, String> {
-    let _ = args;
-    Err("this build has no vision module (merge the `vision` branch)".to_string())
+    let params = VerifierParams {
+        memory_cap: args.server.max_memory_bytes,
+        ..VerifierParams::default()
+    };
+    Ok(Box::new(OrbVerifier::new(params)?))
 }
 
 fn main() -> ExitCode {

@@ -154,10 +154,11 @@ pub enum Outcome {
         id: u64,
         /// The candidate as submitted (keyframes, poses, hint, score).
         candidate: Candidate,
-        /// Rotation mapping match-camera bearings into the query camera.
-        query_R_match: Matrix3<f64>,
-        /// Unit direction of the match camera's centre seen from the query camera.
-        translation_direction: Vector3<f64>,
+        /// Rotation mapping query-camera bearings into the match camera.
+        match_R_query: Matrix3<f64>,
+        /// The query camera's centre seen from the match camera, unit length
+        /// (zero for a pure rotation).
+        match_t_query: Vector3<f64>,
         /// Inliers supporting the pose.
         inliers: u32,
         /// Verifier instance that decided.
@@ -656,8 +657,8 @@ impl VerifierClient {
             Outcome::Confirmed {
                 id: v.candidate_id,
                 candidate: p.candidate,
-                query_R_match: v.rotation_matrix(),
-                translation_direction: Vector3::from(v.translation),
+                match_R_query: v.rotation_matrix(),
+                match_t_query: Vector3::from(v.translation),
                 inliers: v.inliers,
                 instance: v.instance,
             }

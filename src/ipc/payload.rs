@@ -174,10 +174,11 @@ pub struct VerdictMsg {
     pub candidate_id: u64,
     /// The verifier process instance that decided (changes on restart).
     pub instance: u64,
-    /// Relative rotation `query_R_match` (maps match-camera bearings into the
-    /// query camera), row-major.
+    /// Relative rotation `match_R_query` (maps query-camera bearings into the
+    /// match camera), row-major.
     pub rotation: [[f64; 3]; 3],
-    /// Relative translation direction, unit length (monocular: no scale).
+    /// `match_t_query`: the query camera's centre seen from the match camera,
+    /// unit length (images carry no scale); zero for a pure rotation.
     pub translation: [f64; 3],
     /// Geometric inliers supporting the pose.
     pub inliers: u32,
@@ -204,21 +205,25 @@ impl Default for VerdictMsg {
 }
 
 impl VerdictMsg {
-    /// A confirmed verdict with relative pose `query_R_match`, unit translation
-    /// direction `t` and its inlier count.
+    /// A confirmed verdict with relative pose `match_R_query`, translation
+    /// direction `match_t_query` (normalised here) and its inlier count.
     #[allow(non_snake_case)]
     pub fn confirmed(
         candidate_id: u64,
-        query_R_match: &Matrix3<f64>,
-        t: &Vector3<f64>,
+        match_R_query: &Matrix3<f64>,
+        match_t_query: &Vector3<f64>,
         inliers: u32,
     ) -> Self {
-        let norm = t.norm();
-        let t = if norm > 0.0 { t / norm } else { *t };
+        let norm = match_t_query.norm();
+        let t = if norm > 0.0 {
+            match_t_query / norm
+        } else {
+            *match_t_query
+        };
         Self {
             status: status::CONFIRMED,
             candidate_id,
-            rotation: matrix_to_rows(query_R_match),
+            rotation: matrix_to_rows(match_R_query),
             translation: [t.x, t.y, t.z],
             inliers,
             ..Self::default()

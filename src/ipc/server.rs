@@ -13,8 +13,10 @@
 //!   `keyframes_dropped_queue`.
 //! * feature memory: after each keyframe the verifier's
 //!   [`FrameVerifier::memory_bytes`] is brought back under the cap by
-//!   [`FrameVerifier::evict_oldest`]; a verifier that cannot evict gets no new
-//!   keyframes while over the cap (`keyframes_dropped_memory`).
+//!   [`FrameVerifier::evict_oldest`]; a verifier that neither evicts nor caps
+//!   itself gets no new keyframes while over the cap
+//!   (`keyframes_dropped_memory`). `OrbVerifier` caps itself (least recently
+//!   used keyframes go first) at the same number.
 //!
 //! Keyframes are read before every candidate, so a candidate never overtakes
 //! a keyframe it names that was sent before it.
@@ -228,10 +230,10 @@ impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
             return;
         }
         let max = self.max_memory_bytes;
-        while self.verifier.memory_bytes() >= max && self.verifier.evict_oldest() {
+        while self.verifier.memory_bytes() > max && self.verifier.evict_oldest() {
             Counters::bump(&c.keyframes_evicted);
         }
-        if self.verifier.memory_bytes() >= max {
+        if self.verifier.memory_bytes() > max {
             Counters::bump(&c.keyframes_dropped_memory);
             return;
         }

@@ -7,9 +7,9 @@
 pub mod camera;
 #[cfg(feature = "verifier")]
 pub mod features;
-// `impl FrameVerifier for OrbVerifier`; enable at merge, once `crate::ipc::server` exists:
-// #[cfg(feature = "verifier")]
-// mod frame_verifier;
+// `impl FrameVerifier for OrbVerifier` for the verifier sidecar.
+#[cfg(feature = "verifier")]
+mod frame_verifier;
 #[cfg(feature = "verifier")]
 pub mod matching;
 #[cfg(feature = "verifier")]
