@@ -34,7 +34,10 @@ fn roundtrip(c: &mut Criterion) {
     let mut config = ClientConfig::new(&prefix);
     config.liveness_timeout = Duration::from_secs(5);
     let mut client = VerifierClient::new(config).expect("client");
-    assert!(client.wait_for_verifier(Duration::from_secs(20)), "verifier did not start");
+    assert!(
+        client.wait_for_verifier(Duration::from_secs(20)),
+        "verifier did not start"
+    );
 
     c.bench_function("ipc/candidate_to_verdict", |b| {
         b.iter(|| {

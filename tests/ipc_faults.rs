@@ -41,38 +41,72 @@ fn kill_9_expires_outstanding_and_a_restarted_verifier_resumes() {
     let mut verifier = VerifierProcess::start(&prefix, &[]);
     // Long candidate timeout: what expires here expires because the verifier died.
     let mut c = client(&prefix, Duration::from_secs(60), Duration::from_millis(300));
-    assert!(c.wait_for_verifier(Duration::from_secs(20)), "stderr:\n{}", verifier.stderr());
+    assert!(
+        c.wait_for_verifier(Duration::from_secs(20)),
+        "stderr:\n{}",
+        verifier.stderr()
+    );
     publish_pair(&mut c, &a, &b);
 
-    let ids: Vec<u64> = (0..300).map(|_| c.submit(Candidate::between(13, 12))).collect();
+    let ids: Vec<u64> = (0..300)
+        .map(|_| c.submit(Candidate::between(13, 12)))
+        .collect();
     // Mid-run: some verdicts are in, most candidates are still queued.
     let mut outcomes = collect(&mut c, 1, Duration::from_secs(20));
-    assert!(!outcomes.is_empty(), "no verdict; stderr:\n{}", verifier.stderr());
+    assert!(
+        !outcomes.is_empty(),
+        "no verdict; stderr:\n{}",
+        verifier.stderr()
+    );
     verifier.kill9();
     let killed_at = Instant::now();
-    outcomes.extend(collect(&mut c, ids.len() - outcomes.len(), Duration::from_secs(5)));
-    assert!(killed_at.elapsed() < Duration::from_secs(2), "expiry took {:?}", killed_at.elapsed());
+    outcomes.extend(collect(
+        &mut c,
+        ids.len() - outcomes.len(),
+        Duration::from_secs(5),
+    ));
+    assert!(
+        killed_at.elapsed() < Duration::from_secs(2),
+        "expiry took {:?}",
+        killed_at.elapsed()
+    );
     let kinds = tally(&ids, &outcomes);
     eprintln!("kill -9 after the first verdict: {kinds:?}");
     let gone = kinds.get("expired: verifier gone").copied().unwrap_or(0);
     assert!(gone > 0, "{kinds:?}");
-    assert!(kinds.get("confirmed").copied().unwrap_or(0) > 0, "{kinds:?}");
+    assert!(
+        kinds.get("confirmed").copied().unwrap_or(0) > 0,
+        "{kinds:?}"
+    );
     assert_eq!(c.outstanding(), 0);
 
     // The detector keeps working with the verifier down.
     let lone = c.submit(Candidate::between(13, 12));
     let now = c.poll();
-    assert!(matches!(now.as_slice(), [Outcome::Expired { id, reason: ExpiryReason::VerifierAbsent, .. }] if *id == lone));
+    assert!(
+        matches!(now.as_slice(), [Outcome::Expired { id, reason: ExpiryReason::VerifierAbsent, .. }] if *id == lone)
+    );
 
     // A new verifier under the same prefix comes up over the dead one's
     // leftovers and answers, without restarting the detector.
     let verifier2 = VerifierProcess::start(&prefix, &[]);
-    assert!(c.wait_for_verifier(Duration::from_secs(20)), "restart; stderr:\n{}", verifier2.stderr());
+    assert!(
+        c.wait_for_verifier(Duration::from_secs(20)),
+        "restart; stderr:\n{}",
+        verifier2.stderr()
+    );
     publish_pair(&mut c, &a, &b);
-    let fresh: Vec<u64> = (0..3).map(|_| c.submit(Candidate::between(13, 12))).collect();
+    let fresh: Vec<u64> = (0..3)
+        .map(|_| c.submit(Candidate::between(13, 12)))
+        .collect();
     let after = collect(&mut c, fresh.len(), Duration::from_secs(20));
     let kinds = tally(&fresh, &after);
-    assert_eq!(kinds.get("confirmed"), Some(&3), "{kinds:?}; stderr:\n{}", verifier2.stderr());
+    assert_eq!(
+        kinds.get("confirmed"),
+        Some(&3),
+        "{kinds:?}; stderr:\n{}",
+        verifier2.stderr()
+    );
 }
 
 #[test]
@@ -85,14 +119,27 @@ fn a_quick_restart_expires_the_old_instances_candidates_as_restarted() {
     assert!(c.wait_for_verifier(Duration::from_secs(20)));
     let first = c.verifier_instance().unwrap();
     publish_pair(&mut c, &a, &b);
-    let ids: Vec<u64> = (0..300).map(|_| c.submit(Candidate::between(13, 12))).collect();
+    let ids: Vec<u64> = (0..300)
+        .map(|_| c.submit(Candidate::between(13, 12)))
+        .collect();
     let mut outcomes = collect(&mut c, 1, Duration::from_secs(20));
     verifier.kill9();
     let _verifier2 = VerifierProcess::start(&prefix, &[]);
-    outcomes.extend(collect(&mut c, ids.len() - outcomes.len(), Duration::from_secs(20)));
+    outcomes.extend(collect(
+        &mut c,
+        ids.len() - outcomes.len(),
+        Duration::from_secs(20),
+    ));
     let kinds = tally(&ids, &outcomes);
     eprintln!("quick restart: {kinds:?}");
-    assert!(kinds.get("expired: verifier restarted").copied().unwrap_or(0) > 0, "{kinds:?}");
+    assert!(
+        kinds
+            .get("expired: verifier restarted")
+            .copied()
+            .unwrap_or(0)
+            > 0,
+        "{kinds:?}"
+    );
     let second = c.verifier_instance().expect("new instance heard");
     assert_ne!(first, second);
 }
@@ -117,7 +164,11 @@ fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
     let cap = 1u64 << 20;
     let verifier = VerifierProcess::start(&prefix, &["--max-memory-mb", "1"]);
     let mut c = client(&prefix, Duration::from_secs(30), Duration::from_secs(2));
-    assert!(c.wait_for_verifier(Duration::from_secs(20)), "stderr:\n{}", verifier.stderr());
+    assert!(
+        c.wait_for_verifier(Duration::from_secs(20)),
+        "stderr:\n{}",
+        verifier.stderr()
+    );
     let rss_before = verifier.rss_bytes().unwrap();
     let mut rss_peak = rss_before;
 
@@ -125,7 +176,8 @@ fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
     let flood = 1000u64;
     for k in 0..flood {
         let img = &frames[(k % 2) as usize];
-        c.publish_keyframe(k, k as f64 * 0.1, &camera, &img.pixels).unwrap();
+        c.publish_keyframe(k, k as f64 * 0.1, &camera, &img.pixels)
+            .unwrap();
         if k % 50 == 0 {
             rss_peak = rss_peak.max(verifier.rss_bytes().unwrap());
         }
@@ -133,29 +185,49 @@ fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
     let after_flood = settle(&mut c, flood, Duration::from_secs(30));
     eprintln!("after the flood: {after_flood:?}");
     // Everything published is accounted for: processed or counted as dropped.
-    assert_eq!(after_flood.keyframes_received + after_flood.keyframes_dropped_queue, flood);
-    assert!(after_flood.keyframes_dropped_queue > flood / 2, "{after_flood:?}");
+    assert_eq!(
+        after_flood.keyframes_received + after_flood.keyframes_dropped_queue,
+        flood
+    );
+    assert!(
+        after_flood.keyframes_dropped_queue > flood / 2,
+        "{after_flood:?}"
+    );
 
     // Paced: each keyframe processed, 40 x ~80 KB of features through a 1 MB cap.
     for k in flood..flood + 40 {
         let img = &frames[(k % 2) as usize];
-        c.publish_keyframe(k, k as f64 * 0.1, &camera, &img.pixels).unwrap();
+        c.publish_keyframe(k, k as f64 * 0.1, &camera, &img.pixels)
+            .unwrap();
         let s = settle(&mut c, k + 1, Duration::from_secs(10));
         assert!(s.memory_bytes <= cap, "{s:?}");
         rss_peak = rss_peak.max(verifier.rss_bytes().unwrap());
     }
     let status = *c.verifier_status().unwrap();
     eprintln!("after pacing: {status:?}, rss before {rss_before} peak {rss_peak}");
-    assert_eq!(status.keyframes_received + status.keyframes_dropped_queue, flood + 40);
+    assert_eq!(
+        status.keyframes_received + status.keyframes_dropped_queue,
+        flood + 40
+    );
     assert!(status.keyframes_added >= 40, "{status:?}");
     // The features filled the cap (so old ones were evicted) and stayed under it.
-    assert!(status.memory_bytes > cap / 2 && status.memory_bytes <= cap, "{status:?}");
+    assert!(
+        status.memory_bytes > cap / 2 && status.memory_bytes <= cap,
+        "{status:?}"
+    );
     assert_eq!(c.stats().keyframes_sent, flood + 40);
     assert_eq!(c.stats().keyframes_failed, 0);
     // Resident memory grows by the bounded queue and the capped features,
     // not with the 470 MB that went through.
-    assert!(rss_peak < rss_before + (64 << 20), "rss {rss_before} -> {rss_peak}");
+    assert!(
+        rss_peak < rss_before + (64 << 20),
+        "rss {rss_before} -> {rss_peak}"
+    );
     // The counts are reported on stderr too.
     std::thread::sleep(Duration::from_millis(1200));
-    assert!(verifier.stderr().contains("dropped (queue)"), "{}", verifier.stderr());
+    assert!(
+        verifier.stderr().contains("dropped (queue)"),
+        "{}",
+        verifier.stderr()
+    );
 }

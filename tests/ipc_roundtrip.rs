@@ -15,7 +15,11 @@ fn overlapping_frames_are_confirmed_and_unknown_ones_rejected() {
     let prefix = unique_prefix("roundtrip");
     let verifier = VerifierProcess::start(&prefix, &[]);
     let mut c = client(&prefix, Duration::from_secs(20), Duration::from_secs(2));
-    assert!(c.wait_for_verifier(Duration::from_secs(20)), "no heartbeat; stderr:\n{}", verifier.stderr());
+    assert!(
+        c.wait_for_verifier(Duration::from_secs(20)),
+        "no heartbeat; stderr:\n{}",
+        verifier.stderr()
+    );
 
     for frame in [12, 13] {
         let img = kitti06(frame);
@@ -47,8 +51,14 @@ fn overlapping_frames_are_confirmed_and_unknown_ones_rejected() {
             assert_eq!(*candidate, hint, "the caller gets its candidate back");
             assert!(*inliers >= 30, "{inliers} inliers");
             // One frame apart at ~12 m/s: almost no rotation, motion along the optical axis.
-            let angle = ((match_R_query.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
-            assert!(angle.to_degrees() < 3.0, "rotation {:.2} deg", angle.to_degrees());
+            let angle = ((match_R_query.trace() - 1.0) / 2.0)
+                .clamp(-1.0, 1.0)
+                .acos();
+            assert!(
+                angle.to_degrees() < 3.0,
+                "rotation {:.2} deg",
+                angle.to_degrees()
+            );
             assert!((match_t_query.norm() - 1.0).abs() < 1e-6);
             assert!(match_t_query.z.abs() > 0.9, "direction {match_t_query:?}");
         } else {

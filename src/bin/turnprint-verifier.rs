@@ -31,7 +31,10 @@ fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
         if flag == "-h" || flag == "--help" {
             return Err(USAGE.to_string());
         }
-        let mut value = || it.next().ok_or_else(|| format!("{flag} needs a value\n{USAGE}"));
+        let mut value = || {
+            it.next()
+                .ok_or_else(|| format!("{flag} needs a value\n{USAGE}"))
+        };
         let number = |v: String| {
             v.parse::<u64>()
                 .map_err(|_| format!("{flag}: {v:?} is not a whole number\n{USAGE}"))
@@ -74,6 +77,9 @@ fn vision_verifier(args: &Args) -> Result<Box<dyn FrameVerifier>, String> {
 }
 
 fn main() -> ExitCode {
+    // iceoryx2 warns about its missing optional config file on every start;
+    // only its errors matter here (IOX2_LOG_LEVEL overrides).
+    iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
     let args = match parse_args(std::env::args().skip(1)) {
         Ok(a) => a,
         Err(e) => {

@@ -360,7 +360,9 @@ impl VerifierClient {
         image: &[u8],
     ) -> Result<(), IpcError> {
         let height = camera.height as usize;
-        if height == 0 || image.len() % height != 0 || image.len() / height < camera.width as usize
+        if height == 0
+            || !image.len().is_multiple_of(height)
+            || image.len() / height < camera.width as usize
         {
             self.stats.keyframes_failed += 1;
             return Err(IpcError(format!(
@@ -508,7 +510,9 @@ impl VerifierClient {
                 return out;
             }
             let wake = self.next_deadline().map_or(end, |d| d.min(end));
-            let nap = wake.saturating_duration_since(now).max(Duration::from_micros(50));
+            let nap = wake
+                .saturating_duration_since(now)
+                .max(Duration::from_micros(50));
             let _ = self.listener.timed_wait(|_| {}, nap.min(end - now));
         }
     }
@@ -710,7 +714,10 @@ mod tests {
     #[test]
     fn expiry_reasons_read_as_documented() {
         assert_eq!(ExpiryReason::VerifierGone.to_string(), "verifier gone");
-        assert_eq!(ExpiryReason::VerifierRestarted.to_string(), "verifier restarted");
+        assert_eq!(
+            ExpiryReason::VerifierRestarted.to_string(),
+            "verifier restarted"
+        );
         assert_eq!(ExpiryReason::VerifierAbsent.to_string(), "verifier absent");
         assert_eq!(ExpiryReason::Timeout.to_string(), "timeout");
     }

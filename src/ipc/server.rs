@@ -27,10 +27,10 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use iceoryx2::identifiers::UniquePublisherId;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::identifiers::UniquePublisherId;
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 
@@ -238,7 +238,9 @@ impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
             return;
         }
         let verifier = &mut *self.verifier;
-        match catch_unwind(AssertUnwindSafe(|| verifier.add_keyframe(h, &image[..needed]))) {
+        match catch_unwind(AssertUnwindSafe(|| {
+            verifier.add_keyframe(h, &image[..needed])
+        })) {
             Ok(Ok(())) => Counters::bump(&c.keyframes_added),
             Ok(Err(e)) => {
                 Counters::bump(&c.keyframes_failed);
@@ -246,7 +248,10 @@ impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
             }
             Err(_) => {
                 Counters::bump(&c.keyframes_failed);
-                eprintln!("turnprint-verifier: keyframe {}: vision code panicked", h.keyframe_id);
+                eprintln!(
+                    "turnprint-verifier: keyframe {}: vision code panicked",
+                    h.keyframe_id
+                );
             }
         }
         while self.verifier.memory_bytes() > max && self.verifier.evict_oldest() {
@@ -304,7 +309,8 @@ impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
         while let Ok(Some(sample)) = self.ports.candidates.receive() {
             let id = sample.payload().candidate_id;
             drop(sample);
-            let mut v = VerdictMsg::rejected(id, reason::SHUTTING_DOWN, "verifier shutting down", 0);
+            let mut v =
+                VerdictMsg::rejected(id, reason::SHUTTING_DOWN, "verifier shutting down", 0);
             if self.send(&mut v, id).is_err() {
                 break;
             }
@@ -415,8 +421,12 @@ pub fn run<V: FrameVerifier + ?Sized>(
     let counters = Arc::new(Counters::default());
     let stop = Arc::new(AtomicBool::new(false));
     let beat = {
-        let (names, counters, config, stop) =
-            (names.clone(), counters.clone(), config.clone(), stop.clone());
+        let (names, counters, config, stop) = (
+            names.clone(),
+            counters.clone(),
+            config.clone(),
+            stop.clone(),
+        );
         std::thread::Builder::new()
             .name("heartbeat".into())
             .spawn(move || heartbeat(names, instance, counters, config, stop))

@@ -32,8 +32,7 @@ impl FrameVerifier for OrbVerifier {
                 return VerdictMsg::rejected(id, reason::UNKNOWN_KEYFRAME, &text, 0);
             }
         }
-        let verdict =
-            OrbVerifier::verify(self, candidate.query_keyframe, candidate.match_keyframe);
+        let verdict = OrbVerifier::verify(self, candidate.query_keyframe, candidate.match_keyframe);
         let inliers = verdict.inliers.min(u32::MAX as usize) as u32;
         match &verdict.pose {
             Some(pose) => VerdictMsg::confirmed(id, pose.b_R_a.matrix(), &pose.b_t_a, inliers),

@@ -36,7 +36,14 @@ impl VerifierProcess {
         let stderr = std::fs::File::create(&stderr_path).unwrap();
         use std::process::{Command, Stdio};
         let child = Command::new(env!("CARGO_BIN_EXE_turnprint-verifier"))
-            .args(["--prefix", prefix, "--heartbeat-ms", "20", "--report-secs", "1"])
+            .args([
+                "--prefix",
+                prefix,
+                "--heartbeat-ms",
+                "20",
+                "--report-secs",
+                "1",
+            ])
             .args(extra)
             .stdin(Stdio::null())
             .stdout(Stdio::null())
@@ -111,8 +118,9 @@ fn data_dir() -> PathBuf {
 pub fn kitti06(frame: u32) -> Gray {
     use opencv::prelude::*;
     let path = data_dir().join(format!("kitti06-{frame}.png"));
-    let mat = opencv::imgcodecs::imread(path.to_str().unwrap(), opencv::imgcodecs::IMREAD_GRAYSCALE)
-        .unwrap();
+    let mat =
+        opencv::imgcodecs::imread(path.to_str().unwrap(), opencv::imgcodecs::IMREAD_GRAYSCALE)
+            .unwrap();
     assert!(!mat.empty(), "{} did not load", path.display());
     let (width, height) = (mat.cols() as u32, mat.rows() as u32);
     let pixels = mat.data_bytes().unwrap().to_vec();
