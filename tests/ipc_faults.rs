@@ -231,3 +231,46 @@ fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
         verifier.stderr()
     );
 }
+
+#[test]
+fn sigterm_answers_queued_candidates_before_exit() {
+    let prefix = unique_prefix("sigterm");
+    let (a, b) = (kitti06(12), kitti06(13));
+    let mut verifier = VerifierProcess::start(&prefix, &[]);
+    let mut c = client(&prefix, Duration::from_secs(60), Duration::from_secs(10));
+    assert!(c.wait_for_verifier(Duration::from_secs(20)));
+    publish_pair(&mut c, &a, &b);
+    let ids: Vec<u64> = (0..300)
+        .map(|_| c.submit(Candidate::between(13, 12)))
+        .collect();
+    let mut outcomes = collect(&mut c, 1, Duration::from_secs(20));
+    let status = std::process::Command::new("kill")
+        .args(["-TERM", &verifier.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let exit = verifier.child.wait().unwrap();
+    assert!(exit.success(), "{exit:?}; stderr:\n{}", verifier.stderr());
+    outcomes.extend(collect(
+        &mut c,
+        ids.len() - outcomes.len(),
+        Duration::from_secs(5),
+    ));
+    let kinds = tally(&ids, &outcomes);
+    eprintln!("SIGTERM: {kinds:?}");
+    // A clean exit answers what it will not verify instead of leaving it to expire.
+    assert!(
+        kinds
+            .get("rejected: verifier shutting down")
+            .copied()
+            .unwrap_or(0)
+            > 0,
+        "{kinds:?}"
+    );
+    assert!(!kinds.keys().any(|k| k.starts_with("expired")), "{kinds:?}");
+    assert!(
+        verifier.stderr().contains("final:"),
+        "{}",
+        verifier.stderr()
+    );
+}

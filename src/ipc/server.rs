@@ -157,6 +157,7 @@ struct Ports {
 
 /// The loop's state besides the verifier.
 struct Loop<'a, V: FrameVerifier + ?Sized> {
+    node: &'a Node<S>,
     verifier: &'a mut V,
     ports: Ports,
     counters: Arc<Counters>,
@@ -168,8 +169,14 @@ struct Loop<'a, V: FrameVerifier + ?Sized> {
 
 impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
     /// Handles everything queued: all keyframes before each candidate.
-    fn drain(&mut self) -> Result<(), IpcError> {
+    /// Returns true when SIGINT/SIGTERM arrived meanwhile.
+    fn drain(&mut self) -> Result<bool, IpcError> {
         loop {
+            // A zero wait only checks for a termination request, so a long
+            // backlog does not delay shutdown.
+            if self.node.wait(Duration::ZERO).is_err() {
+                return Ok(true);
+            }
             while let Some(sample) = self
                 .ports
                 .keyframes
@@ -190,7 +197,7 @@ impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
                     drop(sample);
                     self.candidate(&c)?;
                 }
-                None => return Ok(()),
+                None => return Ok(false),
             }
         }
     }
@@ -438,6 +445,7 @@ pub fn run<V: FrameVerifier + ?Sized>(
     );
 
     let mut lp = Loop {
+        node: &node,
         verifier,
         ports,
         counters: counters.clone(),
@@ -447,7 +455,9 @@ pub fn run<V: FrameVerifier + ?Sized>(
     };
     let result = (|| loop {
         // Anything sent before the listener existed is already queued.
-        lp.drain()?;
+        if lp.drain()? {
+            return Ok(());
+        }
         let run = waitset
             .wait_and_process_once(|_| {
                 let _ = listener.try_wait(|_| {});
