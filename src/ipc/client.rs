@@ -12,6 +12,10 @@
 //! Liveness comes from the verifier's status heartbeats: a verifier is alive
 //! while its last heartbeat is younger than [`ClientConfig::liveness_timeout`].
 //! The client never blocks longer than asked and needs no verifier at all.
+//!
+//! Verdicts wait in a queue of [`VERDICT_QUEUE`](super::services::VERDICT_QUEUE);
+//! a caller that lets more pile up between polls loses the oldest, and those
+//! candidates end as `timeout`.
 
 use std::collections::{HashMap, VecDeque};
 use std::fmt;
