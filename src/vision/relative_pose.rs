@@ -21,10 +21,13 @@
 //!
 //! Acceptance needs, besides a consistent model: at least `min_inliers`
 //! inliers, an inlier ratio of at least `min_inlier_ratio`, and for a general
-//! pose a well-conditioned 8-point system (`σ₈/σ₉ >= min_conditioning` of the
-//! inlier design matrix: the second-smallest singular value must stand clearly
-//! above the residual level `σ₉`, otherwise a second near-null direction
-//! means the pose is not determined, as for a pure rotation) and most inliers in front of both cameras.
+//! pose a well-conditioned fit: the standard deviation of the rotation from
+//! the refinement's information matrix (residuals in units of their noise)
+//! must stay below `max_rotation_std` radians, so degenerate configurations
+//! (planar scenes, where a family of essential matrices fits) are rejected;
+//! and most inliers with measurable parallax must lie in front of both
+//! cameras. A translation direction less certain than `max_translation_std`
+//! is not reported (rotation only).
 
 #![allow(non_snake_case)]
 
@@ -59,9 +62,13 @@ pub struct PoseParams {
     pub min_inliers: usize,
     /// Smallest fraction of the matches that must be inliers.
     pub min_inlier_ratio: f64,
-    /// Smallest `σ₈/σ₉` of the inlier 8-point design matrix for a general pose.
-    pub min_conditioning: f64,
-    /// Smallest fraction of inliers triangulating in front of both cameras.
+    /// Largest standard deviation (radians) of the refined rotation; a
+    /// larger one means the matches do not determine the pose (degenerate).
+    pub max_rotation_std: f64,
+    /// Largest standard deviation (radians) of the translation direction for
+    /// it to be reported; beyond it the pose is reported as rotation only.
+    pub max_translation_std: f64,
+    /// Smallest fraction of inliers with parallax that triangulate in front of both cameras.
     pub min_cheirality: f64,
     /// The rotation-only model is chosen when its inliers reach this fraction
     /// of the essential-matrix inliers.
@@ -76,7 +83,8 @@ impl Default for PoseParams {
             confidence: 0.999,
             min_inliers: 30,
             min_inlier_ratio: 0.25,
-            min_conditioning: 2.0,
+            max_rotation_std: 5f64.to_radians(),
+            max_translation_std: 10f64.to_radians(),
             min_cheirality: 0.8,
             rotation_only_fraction: 0.9,
         }
@@ -103,8 +111,10 @@ pub struct RelativePose {
     pub inliers: Vec<usize>,
     /// Model that explained the matches.
     pub kind: PoseKind,
-    /// `σ₈/σ₉` of the inlier design matrix.
-    pub conditioning: f64,
+    /// Standard deviation (radians) of the rotation, from the refinement (NaN for the rotation-only model).
+    pub rotation_std: f64,
+    /// Standard deviation (radians) of the translation direction (NaN for the rotation-only model).
+    pub translation_std: f64,
 }
 
 /// Result of the relative-pose test.
@@ -156,19 +166,17 @@ fn normal_matrix(corr: &[Correspondence], idx: &[usize]) -> SMatrix<f64, 9, 9> {
     ata
 }
 
-/// Essential matrix from >= 8 correspondences (least squares) and `σ₈/σ₉`.
-fn eight_point(corr: &[Correspondence], idx: &[usize]) -> Option<(Matrix3<f64>, f64)> {
+/// Essential matrix from >= 8 correspondences (least squares).
+fn eight_point(corr: &[Correspondence], idx: &[usize]) -> Option<Matrix3<f64>> {
     let eig = SymmetricEigen::new(normal_matrix(corr, idx));
     let mut order: Vec<usize> = (0..9).collect();
     order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
     let e = eig.eigenvectors.column(order[0]);
-    let smallest = eig.eigenvalues[order[0]].max(f64::MIN_POSITIVE);
-    let conditioning = (eig.eigenvalues[order[1]].max(0.0) / smallest).sqrt();
     let E = Matrix3::new(e[0], e[1], e[2], e[3], e[4], e[5], e[6], e[7], e[8]);
     let svd = E.svd(true, true);
     let (u, v_t) = (svd.u?, svd.v_t?);
     let E = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0)) * v_t;
-    E.iter().all(|v| v.is_finite()).then_some((E, conditioning))
+    E.iter().all(|v| v.is_finite()).then_some(E)
 }
 
 /// Spherical Sampson error (radians): `fᵦᵀ E fₐ` over the norm of its
@@ -254,16 +262,27 @@ fn triangulate_depths(R: &Matrix3<f64>, t: &Vector3<f64>, c: &Correspondence) ->
     ((a22 * r1 - a12 * r2) / det, (a11 * r2 - a12 * r1) / det)
 }
 
-/// Fraction of the inliers that triangulate in front of both cameras.
+/// Fraction of the informative inliers (parallax above the noise, so that
+/// the sign of their depth is measured) that triangulate in front of both
+/// cameras; 1 when no inlier is informative.
 fn cheirality(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], inliers: &[usize]) -> f64 {
-    let front = inliers
-        .iter()
-        .filter(|&&i| {
-            let (da, db) = triangulate_depths(R.matrix(), t, &corr[i]);
-            da > 0.0 && db > 0.0
-        })
-        .count();
-    front as f64 / inliers.len().max(1) as f64
+    let (mut informative, mut front) = (0usize, 0usize);
+    for &i in inliers {
+        let c = &corr[i];
+        if (R * c.a).angle(&c.b) < 2.0 * c.sigma {
+            continue;
+        }
+        informative += 1;
+        let (da, db) = triangulate_depths(R.matrix(), t, c);
+        if da > 0.0 && db > 0.0 {
+            front += 1;
+        }
+    }
+    if informative == 0 {
+        1.0
+    } else {
+        front as f64 / informative as f64
+    }
 }
 
 /// The decomposition of `E` whose inliers lie in front of both cameras, with that fraction.
@@ -301,6 +320,7 @@ struct Refined {
     t: Vector3<f64>,
     inliers: Vec<usize>,
     cost: f64,
+    information: SMatrix<f64, 5, 5>,
 }
 
 /// Local optimisation of one essential matrix: decompose (cheirality), then
@@ -311,15 +331,21 @@ fn local_optimise(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize], 
     let mut current = inliers.to_vec();
     let mut selected = Vec::with_capacity(corr.len());
     let mut cost = f64::INFINITY;
+    let mut information = SMatrix::<f64, 5, 5>::zeros();
     for _ in 0..3 {
-        (R, t) = refine_pose(R, t, corr, &current);
+        (R, t, information) = refine_pose(R, t, corr, &current);
         cost = essential_inliers(&(t.cross_matrix() * R.matrix()), corr, p.threshold_sigmas, &mut selected);
         if selected == current || selected.len() < 8 {
             break;
         }
         std::mem::swap(&mut selected, &mut current);
     }
-    (current.len() >= 8).then_some(Refined { R, t, inliers: current, cost })
+    if current.len() < 8 {
+        return None;
+    }
+    // The Sampson error cannot tell the four decompositions of E apart: choose again by cheirality.
+    let (R, t, _) = decompose(&(t.cross_matrix() * R.matrix()), corr, &current)?;
+    Some(Refined { R, t, inliers: current, cost, information })
 }
 
 /// LO-RANSAC for the essential matrix: MSAC over 8-point samples, then the
@@ -329,7 +355,6 @@ fn local_optimise(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize], 
 fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) -> Option<Refined> {
     let n = corr.len();
     let mut best_cost = f64::INFINITY;
-    let mut best_count = 0;
     let mut starts: Vec<(Matrix3<f64>, Vec<usize>)> = Vec::new();
     let (mut sample, mut inl) = (Vec::with_capacity(8), Vec::with_capacity(n));
     let mut iterations = p.max_iterations;
@@ -337,16 +362,15 @@ fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix)
     while it < iterations {
         it += 1;
         rng.sample(n, 8, &mut sample);
-        let Some((E, _)) = eight_point(corr, &sample) else { continue };
+        let Some(E) = eight_point(corr, &sample) else { continue };
         let cost = essential_inliers(&E, corr, p.threshold_sigmas, &mut inl);
         if cost < best_cost {
             best_cost = cost;
-            best_count = inl.len();
             if starts.len() == LOCAL_STARTS {
                 starts.remove(0);
             }
             starts.push((E, inl.clone()));
-            iterations = needed_iterations(best_count, n, 8, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
+            iterations = needed_iterations(inl.len(), n, 8, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
         }
     }
     starts
@@ -414,35 +438,50 @@ fn perturb(R: &Rotation3<f64>, t: &Vector3<f64>, d: &SVector<f64, 5>) -> (Rotati
     (R, (t + e1 * d[3] + e2 * d[4]).normalize())
 }
 
-/// Levenberg-Marquardt on the spherical Sampson residuals of the inliers: the
-/// linear 8-point fit weighs rays unevenly for narrow fields of view, this
-/// minimises the actual angular errors.
-pub fn refine_pose(R: Rotation3<f64>, t: Vector3<f64>, corr: &[Correspondence], idx: &[usize]) -> (Rotation3<f64>, Vector3<f64>) {
+/// `JᵀJ` and `Jᵀr` of the residuals at `(R, t)` (forward differences);
+/// with residuals in units of their noise `JᵀJ` is the pose information matrix.
+fn normal_equations(
+    R: &Rotation3<f64>,
+    t: &Vector3<f64>,
+    corr: &[Correspondence],
+    idx: &[usize],
+    r0: &[f64],
+    scratch: &mut Vec<f64>,
+) -> (SMatrix<f64, 5, 5>, SVector<f64, 5>) {
+    let h = 1e-7;
+    let mut columns = vec![Vec::new(); 5];
+    for (k, column) in columns.iter_mut().enumerate() {
+        let mut d = SVector::<f64, 5>::zeros();
+        d[k] = h;
+        let (Rp, tp) = perturb(R, t, &d);
+        residuals(&Rp, &tp, corr, idx, scratch);
+        *column = scratch.iter().zip(r0).map(|(p, q)| (p - q) / h).collect();
+    }
+    let mut jtj = SMatrix::<f64, 5, 5>::zeros();
+    let mut jtr = SVector::<f64, 5>::zeros();
+    for p in 0..5 {
+        jtr[p] = columns[p].iter().zip(r0).map(|(j, r)| j * r).sum();
+        for q in p..5 {
+            let v: f64 = columns[p].iter().zip(&columns[q]).map(|(x, y)| x * y).sum();
+            jtj[(p, q)] = v;
+            jtj[(q, p)] = v;
+        }
+    }
+    (jtj, jtr)
+}
+
+/// Levenberg-Marquardt on the spherical Sampson residuals of the inliers:
+/// the linear 8-point fit weighs rays unevenly, this minimises angular errors.
+/// Returns the refined pose and its information matrix (rotation vector
+/// first, then the two tangent directions of the unit translation).
+pub fn refine_pose(R: Rotation3<f64>, t: Vector3<f64>, corr: &[Correspondence], idx: &[usize]) -> (Rotation3<f64>, Vector3<f64>, SMatrix<f64, 5, 5>) {
     let (mut R, mut t) = (R, t.normalize());
-    let (mut r0, mut r1) = (Vec::new(), Vec::new());
+    let (mut r0, mut r1, mut scratch) = (Vec::new(), Vec::new(), Vec::new());
     residuals(&R, &t, corr, idx, &mut r0);
     let mut cost: f64 = r0.iter().map(|v| v * v).sum();
     let mut lambda = 1e-3;
-    let h = 1e-7;
     for _ in 0..100 {
-        let mut jtj = SMatrix::<f64, 5, 5>::zeros();
-        let mut jtr = SVector::<f64, 5>::zeros();
-        let mut columns = vec![Vec::new(); 5];
-        for (k, column) in columns.iter_mut().enumerate() {
-            let mut d = SVector::<f64, 5>::zeros();
-            d[k] = h;
-            let (Rp, tp) = perturb(&R, &t, &d);
-            residuals(&Rp, &tp, corr, idx, &mut r1);
-            *column = r1.iter().zip(&r0).map(|(p, q)| (p - q) / h).collect();
-        }
-        for p in 0..5 {
-            jtr[p] = columns[p].iter().zip(&r0).map(|(j, r)| j * r).sum();
-            for q in p..5 {
-                let v: f64 = columns[p].iter().zip(&columns[q]).map(|(x, y)| x * y).sum();
-                jtj[(p, q)] = v;
-                jtj[(q, p)] = v;
-            }
-        }
+        let (jtj, jtr) = normal_equations(&R, &t, corr, idx, &r0, &mut scratch);
         let mut improved = false;
         for _ in 0..5 {
             let mut damped = jtj;
@@ -470,7 +509,8 @@ pub fn refine_pose(R: Rotation3<f64>, t: Vector3<f64>, corr: &[Correspondence], 
             break;
         }
     }
-    (R, t)
+    let (information, _) = normal_equations(&R, &t, corr, idx, &r0, &mut scratch);
+    (R, t, information)
 }
 
 /// Estimates and checks the relative pose `b_T_a` from matched bearings.
@@ -500,11 +540,12 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
                 b_t_a: Vector3::zeros(),
                 inliers: r_inliers,
                 kind: PoseKind::RotationOnly,
-                conditioning: 0.0,
+                rotation_std: f64::NAN,
+                translation_std: f64::NAN,
             });
         }
     }
-    let Some(Refined { R, t, .. }) = general else {
+    let Some(Refined { R, t, information, .. }) = general else {
         return PoseOutcome::Rejected { reason: "no essential matrix".into(), inliers: 0 };
     };
     if !enough(e_inliers.len()) {
@@ -513,21 +554,38 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
             inliers: e_inliers.len(),
         };
     }
-    let conditioning = eight_point(corr, &e_inliers).map_or(0.0, |(_, c)| c);
-    if conditioning < p.min_conditioning {
+    let (rotation_std, translation_std) = pose_std(&information);
+    if !(rotation_std <= p.max_rotation_std) {
         return PoseOutcome::Rejected {
-            reason: format!("ill-conditioned pose (σ8/σ9 = {conditioning:.2} < {:.2})", p.min_conditioning),
+            reason: format!(
+                "ill-conditioned pose: rotation σ {:.3}° > {:.3}°",
+                rotation_std.to_degrees(),
+                p.max_rotation_std.to_degrees()
+            ),
             inliers: e_inliers.len(),
         };
     }
     let front = cheirality(&R, &t, corr, &e_inliers);
     if front < p.min_cheirality {
         return PoseOutcome::Rejected {
-            reason: format!("only {:.0} % of inliers in front of both cameras", 100.0 * front),
+            reason: format!("only {:.0} % of inliers with parallax in front of both cameras", 100.0 * front),
             inliers: e_inliers.len(),
         };
     }
-    PoseOutcome::Accepted(RelativePose { b_R_a: R, b_t_a: t.normalize(), inliers: e_inliers, kind: PoseKind::General, conditioning })
+    // A rotation well determined with a translation direction that is not
+    // (parallax close to the noise): report the rotation only.
+    let kind = if translation_std <= p.max_translation_std { PoseKind::General } else { PoseKind::RotationOnly };
+    let b_t_a = if kind == PoseKind::General { t.normalize() } else { Vector3::zeros() };
+    PoseOutcome::Accepted(RelativePose { b_R_a: R, b_t_a, inliers: e_inliers, kind, rotation_std, translation_std })
+}
+
+/// Largest standard deviations (radians) of the rotation and of the
+/// translation direction, from the inverse of the information matrix.
+fn pose_std(information: &SMatrix<f64, 5, 5>) -> (f64, f64) {
+    let Some(cov) = information.try_inverse() else { return (f64::INFINITY, f64::INFINITY) };
+    let rot = SymmetricEigen::new(cov.fixed_view::<3, 3>(0, 0).into_owned()).eigenvalues.max();
+    let tra = SymmetricEigen::new(cov.fixed_view::<2, 2>(3, 3).into_owned()).eigenvalues.max();
+    (rot.max(0.0).sqrt(), tra.max(0.0).sqrt())
 }
 
 #[cfg(test)]
