@@ -171,10 +171,13 @@ impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
     /// Handles everything queued: all keyframes before each candidate.
     /// Returns true when SIGINT/SIGTERM arrived meanwhile.
     fn drain(&mut self) -> Result<bool, IpcError> {
+        let started = Instant::now();
         loop {
             // A zero wait only checks for a termination request, so a long
-            // backlog does not delay shutdown.
-            if self.node.wait(Duration::ZERO).is_err() {
+            // backlog does not delay shutdown; short drains skip the syscall.
+            if started.elapsed() > Duration::from_millis(10)
+                && self.node.wait(Duration::ZERO).is_err()
+            {
                 return Ok(true);
             }
             while let Some(sample) = self
