@@ -274,3 +274,40 @@ fn sigterm_answers_queued_candidates_before_exit() {
         verifier.stderr()
     );
 }
+
+#[test]
+fn a_slow_answer_expires_as_timeout_and_its_late_verdict_is_counted() {
+    let prefix = unique_prefix("timeout");
+    let (a, b) = (kitti06(12), kitti06(13));
+    let verifier = VerifierProcess::start(&prefix, &[]);
+    // 50 ms per candidate: a backlog of real verifications cannot all make it.
+    let mut c = client(&prefix, Duration::from_millis(50), Duration::from_secs(10));
+    assert!(
+        c.wait_for_verifier(Duration::from_secs(20)),
+        "stderr:\n{}",
+        verifier.stderr()
+    );
+    publish_pair(&mut c, &a, &b);
+    let ids: Vec<u64> = (0..200)
+        .map(|_| c.submit(Candidate::between(13, 12)))
+        .collect();
+    let outcomes = collect(&mut c, ids.len(), Duration::from_secs(5));
+    let kinds = tally(&ids, &outcomes);
+    eprintln!("50 ms timeout: {kinds:?}");
+    assert!(
+        kinds.get("expired: timeout").copied().unwrap_or(0) > 0,
+        "{kinds:?}"
+    );
+    assert!(!kinds.keys().any(|k| k.contains("verifier")), "{kinds:?}");
+    // The verifier still answers every candidate; answers after the deadline
+    // are counted, not delivered twice.
+    let end = Instant::now() + Duration::from_secs(60);
+    while c.verifier_status().map_or(0, |s| s.verdicts_sent) < ids.len() as u64
+        && Instant::now() < end
+    {
+        assert!(c.wait(Duration::from_millis(100)).is_empty());
+    }
+    c.wait(Duration::from_millis(100));
+    let expired = kinds.get("expired: timeout").copied().unwrap_or(0) as u64;
+    assert_eq!(c.stats().late_verdicts, expired, "{:?}", c.stats());
+}
