@@ -36,9 +36,16 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut per_kind = 12usize;
     let mut seqs = Vec::new();
+    let mut params = VerifierParams::default();
     let mut it = args.iter();
     while let Some(a) = it.next() {
-        if a == "--pairs" {
+        if a == "--min-cheirality" {
+            params.pose.min_cheirality = it.next().and_then(|v| v.parse().ok()).expect("--min-cheirality X");
+        } else if a == "--ratio" {
+            params.matching.ratio = it.next().and_then(|v| v.parse().ok()).expect("--ratio X");
+        } else if a == "--features" {
+            params.orb.max_features = it.next().and_then(|v| v.parse().ok()).expect("--features N");
+        } else if a == "--pairs" {
             per_kind = it.next().and_then(|v| v.parse().ok()).expect("--pairs N");
         } else {
             seqs.push(a.clone());
@@ -88,7 +95,7 @@ fn main() {
             k += 1;
         }
         for (p, (name, ca, cb)) in pairings.iter().enumerate() {
-            let mut v = OrbVerifier::new(VerifierParams::default()).expect("verifier");
+            let mut v = OrbVerifier::new(params).expect("verifier");
             let (mut tp, mut fp) = (0, 0);
             let mut failures = Vec::new();
             for (label, list) in [("true", &trues), ("false", &falses)] {
@@ -103,8 +110,14 @@ fn main() {
                     verify_time += t0.elapsed();
                     verify_count += 1;
                     if std::env::var_os("VERBOSE").is_some() {
-                        let stds = verdict.pose.as_ref().map(|p| (p.rotation_std.to_degrees(), p.translation_std.to_degrees()));
-                        println!("  {label} {i}-{j}: {} matches, {} ({stds:?})", verdict.matches, verdict.reason);
+                        // Ground truth b_T_a of the rendered poses.
+                        let gt = on_road(&poses[j]).inverse() * on_road(&poses[i]);
+                        let errors = verdict.pose.as_ref().map(|p| {
+                            let r = (p.b_R_a.inverse() * gt.rotation.to_rotation_matrix()).angle().to_degrees();
+                            let t = if p.b_t_a.norm() > 0.0 { p.b_t_a.angle(&gt.translation.vector).to_degrees() } else { f64::NAN };
+                            format!("rot err {r:.2} deg, t err {t:.1} deg, σ {:.2}/{:.1} deg", p.rotation_std.to_degrees(), p.translation_std.to_degrees())
+                        });
+                        println!("  {label} {i}-{j}: {} matches, {} {errors:?}", verdict.matches, verdict.reason);
                     }
                     if label == "true" {
                         if verdict.confirmed() {

@@ -112,3 +112,46 @@ fn graf_matches_agree_with_the_true_homography() {
         assert!(bad * 10 <= pose.inliers.len(), "{bad} of {} inliers disagree with H", pose.inliers.len());
     }
 }
+
+/// OpenCV's BFMatcher (Hamming) with the same ratio, cap and mutual check.
+fn opencv_matches(a: &turnprint::vision::features::KeyframeFeatures, b: &turnprint::vision::features::KeyframeFeatures, p: MatchParams) -> Vec<(usize, usize)> {
+    use opencv::core::{no_array, DMatch, Vector, NORM_HAMMING};
+    use opencv::features2d::BFMatcher;
+    use opencv::prelude::*;
+    let matcher = BFMatcher::create(NORM_HAMMING, false).unwrap();
+    let (da, db) = (a.descriptor_mat().unwrap(), b.descriptor_mat().unwrap());
+    let mut forward: Vector<Vector<DMatch>> = Vector::new();
+    matcher.knn_train_match(&da, &db, &mut forward, 2, &no_array(), false).unwrap();
+    let mut backward: Vector<DMatch> = Vector::new();
+    matcher.train_match(&db, &da, &mut backward, &no_array()).unwrap();
+    let mut best_in_a = vec![usize::MAX; b.len()];
+    for m in backward.iter() {
+        best_in_a[m.query_idx as usize] = m.train_idx as usize;
+    }
+    forward
+        .iter()
+        .filter_map(|knn| {
+            let (m1, m2) = (knn.get(0).ok()?, knn.get(1).ok()?);
+            let ok = m1.distance <= p.max_distance && m1.distance < p.ratio * m2.distance;
+            let (i, j) = (m1.query_idx as usize, m1.train_idx as usize);
+            (ok && best_in_a[j] == i).then_some((i, j))
+        })
+        .collect()
+}
+
+#[test]
+fn descriptor_matches_equal_opencv_bfmatcher() {
+    let cam = Some(kitti06_camera());
+    let v = verifier_with(&[(12, "images/kitti06-12.png", cam), (13, "images/kitti06-13.png", cam), (1, "images/graf1.png", None)]);
+    let params = MatchParams::default();
+    let ours = DescriptorMatcher::new(params).unwrap();
+    for (x, y) in [(12, 13), (12, 1)] {
+        let (a, b) = (v.features(x).unwrap(), v.features(y).unwrap());
+        let mut mine = ours.match_features(a, b).unwrap();
+        let mut theirs = opencv_matches(a, b, params);
+        mine.sort_unstable();
+        theirs.sort_unstable();
+        eprintln!("{x} vs {y}: {} matches (OpenCV {})", mine.len(), theirs.len());
+        assert_eq!(mine, theirs);
+    }
+}
