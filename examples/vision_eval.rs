@@ -37,9 +37,15 @@ fn main() {
     let mut per_kind = 12usize;
     let mut seqs = Vec::new();
     let mut params = VerifierParams::default();
+    let mut max_heading = 30f64.to_radians();
+    let mut min_heading = 0.0;
     let mut it = args.iter();
     while let Some(a) = it.next() {
-        if a == "--min-cheirality" {
+        if a == "--max-heading" {
+            max_heading = it.next().and_then(|v| v.parse::<f64>().ok()).expect("--max-heading DEG").to_radians();
+        } else if a == "--min-heading" {
+            min_heading = it.next().and_then(|v| v.parse::<f64>().ok()).expect("--min-heading DEG").to_radians();
+        } else if a == "--min-cheirality" {
             params.pose.min_cheirality = it.next().and_then(|v| v.parse().ok()).expect("--min-cheirality X");
         } else if a == "--ratio" {
             params.matching.ratio = it.next().and_then(|v| v.parse().ok()).expect("--ratio X");
@@ -66,12 +72,13 @@ fn main() {
         let poses = kitti_poses(&format!("{}/tests/data/{seq}.txt", env!("CARGO_MANIFEST_DIR")));
         let positions: Vec<_> = poses.iter().map(|p| p.translation.vector).collect();
         let world = World::from_positions(&positions, WorldParams::default()).expect("world");
-        // True revisits: within 3 m, heading within 30 deg, at least 300 frames apart.
+        // True revisits: within 3 m, heading within 30 deg (--max-heading), at least 300 frames apart.
         let mut trues = Vec::new();
         let mut i = 0;
         while i < poses.len() {
             let found = (i + 300..poses.len()).find(|&j| {
-                (positions[i] - positions[j]).norm() < 3.0 && heading_difference(&poses[i], &poses[j]) < 30f64.to_radians()
+                let heading = heading_difference(&poses[i], &poses[j]);
+                (positions[i] - positions[j]).norm() < 3.0 && heading < max_heading && heading >= min_heading
             });
             if let Some(j) = found {
                 trues.push((i, j));

@@ -26,7 +26,9 @@
 //! must stay below `max_rotation_std` radians, so degenerate configurations
 //! (planar scenes, where a family of essential matrices fits) are rejected;
 //! and most inliers with measurable parallax must lie in front of both
-//! cameras. A translation direction less certain than `max_translation_std`
+//! cameras; and no single homography may explain `max_planar_fraction` of
+//! the inliers (a planar scene leaves a twofold pose ambiguity that the
+//! covariance does not reveal). A translation direction less certain than `max_translation_std`
 //! is not reported (rotation only).
 
 #![allow(non_snake_case)]
@@ -68,6 +70,9 @@ pub struct PoseParams {
     /// Largest standard deviation (radians) of the translation direction for
     /// it to be reported; beyond it the pose is reported as rotation only.
     pub max_translation_std: f64,
+    /// Rejected as planar (ambiguous pose) when one homography explains this
+    /// fraction of the essential-matrix inliers.
+    pub max_planar_fraction: f64,
     /// Smallest fraction of inliers with parallax that triangulate in front of both cameras.
     pub min_cheirality: f64,
     /// The rotation-only model is chosen when its inliers reach this fraction
@@ -85,6 +90,7 @@ impl Default for PoseParams {
             min_inlier_ratio: 0.25,
             max_rotation_std: 5f64.to_radians(),
             max_translation_std: 10f64.to_radians(),
+            max_planar_fraction: 0.9,
             min_cheirality: 0.8,
             rotation_only_fraction: 0.9,
         }
@@ -380,6 +386,73 @@ fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix)
         .min_by(|a, b| a.cost.total_cmp(&b.cost))
 }
 
+/// Homography between bearings, `f_b ∝ H f_a`, from >= 4 correspondences
+/// (least squares on `f_b × H f_a = 0`).
+fn homography(corr: &[Correspondence], idx: &[usize]) -> Option<Matrix3<f64>> {
+    let mut ata = SMatrix::<f64, 9, 9>::zeros();
+    for &i in idx {
+        let (a, b) = (&corr[i].a, &corr[i].b);
+        let mut rows = [SVector::<f64, 9>::zeros(); 3];
+        for j in 0..3 {
+            rows[0][6 + j] = b.y * a[j];
+            rows[0][3 + j] = -b.z * a[j];
+            rows[1][j] = b.z * a[j];
+            rows[1][6 + j] = -b.x * a[j];
+            rows[2][3 + j] = b.x * a[j];
+            rows[2][j] = -b.y * a[j];
+        }
+        for r in &rows {
+            ata.syger(1.0, r, r, 1.0);
+        }
+    }
+    let eig = SymmetricEigen::new(ata);
+    let k = eig.eigenvalues.imin();
+    let h = eig.eigenvectors.column(k);
+    let H = Matrix3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
+    H.iter().all(|v| v.is_finite()).then_some(H)
+}
+
+/// Inliers of a homography: the angle between `f_b` and `±H f_a` below `k σ`.
+fn homography_inliers(H: &Matrix3<f64>, corr: &[Correspondence], k: f64, out: &mut Vec<usize>) {
+    out.clear();
+    for (i, c) in corr.iter().enumerate() {
+        let v = H * c.a;
+        let sin = c.b.cross(&v).norm() / v.norm().max(1e-300);
+        if sin < k * c.sigma {
+            out.push(i);
+        }
+    }
+}
+
+/// Most inliers of any homography among `subset` (RANSAC on 4-point samples, then a refit).
+fn homography_support(corr: &[Correspondence], subset: &[usize], p: &PoseParams, rng: &mut SplitMix) -> usize {
+    let sub: Vec<Correspondence> = subset.iter().map(|&i| corr[i]).collect();
+    let n = sub.len();
+    if n < 4 {
+        return n;
+    }
+    let (mut best, mut sample, mut inl) = (Vec::new(), Vec::with_capacity(4), Vec::with_capacity(n));
+    let mut iterations = p.max_iterations;
+    let mut it = 0;
+    while it < iterations {
+        it += 1;
+        rng.sample(n, 4, &mut sample);
+        let Some(H) = homography(&sub, &sample) else { continue };
+        homography_inliers(&H, &sub, p.threshold_sigmas, &mut inl);
+        if inl.len() > best.len() {
+            std::mem::swap(&mut best, &mut inl);
+            iterations = needed_iterations(best.len(), n, 4, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
+        }
+    }
+    if best.len() >= 4 {
+        if let Some(H) = homography(&sub, &best) {
+            homography_inliers(&H, &sub, p.threshold_sigmas, &mut inl);
+            return inl.len().max(best.len());
+        }
+    }
+    best.len()
+}
+
 /// Two-point RANSAC for a pure rotation, refitted on its inliers.
 fn ransac_rotation(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) -> (Option<Rotation3<f64>>, Vec<usize>) {
     let n = corr.len();
@@ -562,6 +635,15 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
                 rotation_std.to_degrees(),
                 p.max_rotation_std.to_degrees()
             ),
+            inliers: e_inliers.len(),
+        };
+    }
+    // A plane explains the matches: the essential matrix has a twofold
+    // ambiguity that no covariance shows, so the pose is not determined.
+    let planar = homography_support(corr, &e_inliers, p, &mut rng);
+    if planar as f64 >= p.max_planar_fraction * e_inliers.len() as f64 {
+        return PoseOutcome::Rejected {
+            reason: format!("planar scene: a homography explains {planar} of {} inliers, the pose is ambiguous", e_inliers.len()),
             inliers: e_inliers.len(),
         };
     }
