@@ -26,9 +26,9 @@
 //! must stay below `max_rotation_std` radians, so degenerate configurations
 //! (planar scenes, where a family of essential matrices fits) are rejected;
 //! and most inliers with measurable parallax must lie in front of both
-//! cameras; and no single homography may explain `max_planar_fraction` of
-//! the inliers (a planar scene leaves a twofold pose ambiguity that the
-//! covariance does not reveal). A translation direction less certain than `max_translation_std`
+//! cameras; and a homography may not take more than `max_homography_share`
+//! of the model-selection score (ORB-SLAM's test: a planar scene leaves a
+//! twofold pose ambiguity that the covariance does not reveal). A translation direction less certain than `max_translation_std`
 //! is not reported (rotation only).
 
 #![allow(non_snake_case)]
@@ -70,9 +70,9 @@ pub struct PoseParams {
     /// Largest standard deviation (radians) of the translation direction for
     /// it to be reported; beyond it the pose is reported as rotation only.
     pub max_translation_std: f64,
-    /// Rejected as planar (ambiguous pose) when one homography explains this
-    /// fraction of the essential-matrix inliers.
-    pub max_planar_fraction: f64,
+    /// Rejected as planar (ambiguous pose) when a homography takes more than
+    /// this share of the model-selection score (ORB-SLAM uses 0.45).
+    pub max_homography_share: f64,
     /// Smallest fraction of inliers with parallax that triangulate in front of both cameras.
     pub min_cheirality: f64,
     /// The rotation-only model is chosen when its inliers reach this fraction
@@ -90,7 +90,7 @@ impl Default for PoseParams {
             min_inlier_ratio: 0.25,
             max_rotation_std: 5f64.to_radians(),
             max_translation_std: 10f64.to_radians(),
-            max_planar_fraction: 0.9,
+            max_homography_share: 0.55,
             min_cheirality: 0.8,
             rotation_only_fraction: 0.9,
         }
@@ -424,14 +424,14 @@ fn homography_inliers(H: &Matrix3<f64>, corr: &[Correspondence], k: f64, out: &m
     }
 }
 
-/// Most inliers of any homography among `subset` (RANSAC on 4-point samples, then a refit).
-fn homography_support(corr: &[Correspondence], subset: &[usize], p: &PoseParams, rng: &mut SplitMix) -> usize {
+/// Best homography among `subset` (RANSAC on 4-point samples, then a refit).
+fn ransac_homography(corr: &[Correspondence], subset: &[usize], p: &PoseParams, rng: &mut SplitMix) -> Option<Matrix3<f64>> {
     let sub: Vec<Correspondence> = subset.iter().map(|&i| corr[i]).collect();
     let n = sub.len();
     if n < 4 {
-        return n;
+        return None;
     }
-    let (mut best, mut sample, mut inl) = (Vec::new(), Vec::with_capacity(4), Vec::with_capacity(n));
+    let (mut best, mut best_H, mut sample, mut inl) = (Vec::new(), None, Vec::with_capacity(4), Vec::with_capacity(n));
     let mut iterations = p.max_iterations;
     let mut it = 0;
     while it < iterations {
@@ -441,16 +441,50 @@ fn homography_support(corr: &[Correspondence], subset: &[usize], p: &PoseParams,
         homography_inliers(&H, &sub, p.threshold_sigmas, &mut inl);
         if inl.len() > best.len() {
             std::mem::swap(&mut best, &mut inl);
+            best_H = Some(H);
             iterations = needed_iterations(best.len(), n, 4, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
         }
     }
     if best.len() >= 4 {
         if let Some(H) = homography(&sub, &best) {
             homography_inliers(&H, &sub, p.threshold_sigmas, &mut inl);
-            return inl.len().max(best.len());
+            if inl.len() >= best.len() {
+                return Some(H);
+            }
         }
     }
-    best.len()
+    best_H
+}
+
+/// Chi-square bounds (95 %) of a one- and a two-dimensional normalised error.
+const CHI2_1: f64 = 3.84;
+const CHI2_2: f64 = 5.99;
+
+/// Share of the homography in the model-selection scores of ORB-SLAM
+/// (Mur-Artal et al. 2015): `S_M = Σ max(0, Γ - e²)` over all matches with the
+/// model's inlier bound (`χ²₁` for the epipolar, `χ²₂` for the transfer
+/// error) and the common `Γ = χ²₂`; `S_H / (S_H + S_E)` above 0.45 means a
+/// plane (or too little parallax) explains the matches as well as the
+/// essential matrix, whose pose is then ambiguous.
+fn homography_share(R: &Rotation3<f64>, t: &Vector3<f64>, H: &Matrix3<f64>, corr: &[Correspondence]) -> f64 {
+    let E = t.cross_matrix() * R.matrix();
+    let (mut s_e, mut s_h) = (0.0, 0.0);
+    for c in corr {
+        let e2 = (sampson_error(&E, c) / c.sigma).powi(2);
+        if e2 < CHI2_1 {
+            s_e += CHI2_2 - e2;
+        }
+        let v = H * c.a;
+        let h2 = (c.b.cross(&v).norm() / v.norm().max(1e-300) / c.sigma).powi(2);
+        if h2 < CHI2_2 {
+            s_h += CHI2_2 - h2;
+        }
+    }
+    if s_e + s_h <= 0.0 {
+        0.0
+    } else {
+        s_h / (s_e + s_h)
+    }
 }
 
 /// Two-point RANSAC for a pure rotation, refitted on its inliers.
@@ -640,12 +674,14 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
     }
     // A plane explains the matches: the essential matrix has a twofold
     // ambiguity that no covariance shows, so the pose is not determined.
-    let planar = homography_support(corr, &e_inliers, p, &mut rng);
-    if planar as f64 >= p.max_planar_fraction * e_inliers.len() as f64 {
-        return PoseOutcome::Rejected {
-            reason: format!("planar scene: a homography explains {planar} of {} inliers, the pose is ambiguous", e_inliers.len()),
-            inliers: e_inliers.len(),
-        };
+    if let Some(H) = ransac_homography(corr, &e_inliers, p, &mut rng) {
+        let share = homography_share(&R, &t, &H, corr);
+        if share > p.max_homography_share {
+            return PoseOutcome::Rejected {
+                reason: format!("planar scene: the homography takes {:.0} % of the model score, the pose is ambiguous", 100.0 * share),
+                inliers: e_inliers.len(),
+            };
+        }
     }
     let front = cheirality(&R, &t, corr, &e_inliers);
     if front < p.min_cheirality {
