@@ -16,9 +16,15 @@ fn kitti00() -> Vec<Isometry3<f64>> {
     let text = std::fs::read_to_string(file).expect("KITTI 00 ground truth");
     text.lines()
         .map(|line| {
-            let v: Vec<f64> = line.split_whitespace().map(|x| x.parse().expect("number")).collect();
+            let v: Vec<f64> = line
+                .split_whitespace()
+                .map(|x| x.parse().expect("number"))
+                .collect();
             let r = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
-            Isometry3::from_parts(Translation3::new(v[3], v[7], v[11]), UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r)))
+            Isometry3::from_parts(
+                Translation3::new(v[3], v[7], v[11]),
+                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r)),
+            )
         })
         .collect()
 }
@@ -36,23 +42,65 @@ fn bench(c: &mut Criterion) {
     let image_b = render(&world, &pinhole, b, W, H);
     let image_c = render(&world, &omni, b, W, H);
     let mut verifier = OrbVerifier::new(VerifierParams::default()).expect("verifier");
-    for (id, image, camera) in [(1, &image_a, pinhole), (2, &image_b, pinhole), (3, &image_c, omni)] {
-        verifier.add_keyframe(id, camera, GrayImage { data: image, width: W, height: H, stride: W }).expect("keyframe");
+    for (id, image, camera) in [
+        (1, &image_a, pinhole),
+        (2, &image_b, pinhole),
+        (3, &image_c, omni),
+    ] {
+        verifier
+            .add_keyframe(
+                id,
+                camera,
+                GrayImage {
+                    data: image,
+                    width: W,
+                    height: H,
+                    stride: W,
+                },
+            )
+            .expect("keyframe");
     }
-    assert!(verifier.verify(1, 2).confirmed(), "bench pair must be a true revisit");
-    c.bench_function("verify pinhole-pinhole 640x480", |bench| bench.iter(|| verifier.verify(1, 2)));
-    c.bench_function("verify pinhole-omni 640x480", |bench| bench.iter(|| verifier.verify(1, 3)));
+    assert!(
+        verifier.verify(1, 2).confirmed(),
+        "bench pair must be a true revisit"
+    );
+    c.bench_function("verify pinhole-pinhole 640x480", |bench| {
+        bench.iter(|| verifier.verify(1, 2))
+    });
+    c.bench_function("verify pinhole-omni 640x480", |bench| {
+        bench.iter(|| verifier.verify(1, 3))
+    });
     let matcher = DescriptorMatcher::new(MatchParams::default()).expect("matcher");
-    let (fa, fb) = (verifier.features(1).expect("a").clone(), verifier.features(2).expect("b").clone());
-    c.bench_function("match descriptors 640x480", |bench| bench.iter(|| matcher.match_features(&fa, &fb).expect("match")));
+    let (fa, fb) = (
+        verifier.features(1).expect("a").clone(),
+        verifier.features(2).expect("b").clone(),
+    );
+    c.bench_function("match descriptors 640x480", |bench| {
+        bench.iter(|| matcher.match_features(&fa, &fb).expect("match"))
+    });
     let mut extract = OrbVerifier::new(VerifierParams::default()).expect("verifier");
     c.bench_function("add keyframe (ORB) 640x480", |bench| {
-        bench.iter(|| extract.add_keyframe(9, pinhole, GrayImage { data: &image_a, width: W, height: H, stride: W }))
+        bench.iter(|| {
+            extract.add_keyframe(
+                9,
+                pinhole,
+                GrayImage {
+                    data: &image_a,
+                    width: W,
+                    height: H,
+                    stride: W,
+                },
+            )
+        })
     });
     let mut group = c.benchmark_group("render 640x480");
     group.sample_size(10);
-    group.bench_function("pinhole", |bench| bench.iter(|| render(&world, &pinhole, a, W, H)));
-    group.bench_function("omni", |bench| bench.iter(|| render(&world, &omni, a, W, H)));
+    group.bench_function("pinhole", |bench| {
+        bench.iter(|| render(&world, &pinhole, a, W, H))
+    });
+    group.bench_function("omni", |bench| {
+        bench.iter(|| render(&world, &omni, a, W, H))
+    });
     group.finish();
 }
 

@@ -24,7 +24,10 @@ pub struct MatchParams {
 
 impl Default for MatchParams {
     fn default() -> Self {
-        MatchParams { ratio: 0.8, max_distance: 80.0 }
+        MatchParams {
+            ratio: 0.8,
+            max_distance: 80.0,
+        }
     }
 }
 
@@ -56,7 +59,10 @@ fn scan_generic(a: &[Words], b: &[Words]) -> Scan {
     for (i, da) in a.iter().enumerate() {
         let (mut best, mut best_j, mut second) = (u32::MAX, 0u32, u32::MAX);
         for (j, db) in b.iter().enumerate() {
-            let d = (da[0] ^ db[0]).count_ones() + (da[1] ^ db[1]).count_ones() + (da[2] ^ db[2]).count_ones() + (da[3] ^ db[3]).count_ones();
+            let d = (da[0] ^ db[0]).count_ones()
+                + (da[1] ^ db[1]).count_ones()
+                + (da[2] ^ db[2]).count_ones()
+                + (da[3] ^ db[3]).count_ones();
             if d < best {
                 second = best;
                 best = d;
@@ -72,7 +78,11 @@ fn scan_generic(a: &[Words], b: &[Words]) -> Scan {
         row_best[i] = (best, best_j);
         row_second[i] = second;
     }
-    Scan { row_best, row_second, col_best }
+    Scan {
+        row_best,
+        row_second,
+        col_best,
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -107,7 +117,11 @@ impl DescriptorMatcher {
 
     /// Index pairs `(i in a, j in b)` that pass the ratio test from a to b and
     /// are mutual nearest neighbours.
-    pub fn match_features(&self, a: &KeyframeFeatures, b: &KeyframeFeatures) -> Result<Vec<(usize, usize)>, String> {
+    pub fn match_features(
+        &self,
+        a: &KeyframeFeatures,
+        b: &KeyframeFeatures,
+    ) -> Result<Vec<(usize, usize)>, String> {
         if a.len() < 2 || b.len() < 2 {
             return Ok(Vec::new());
         }
@@ -115,7 +129,9 @@ impl DescriptorMatcher {
         let s = scan(&wa, &wb);
         let mut pairs = Vec::new();
         for (i, (&(best, j), &second)) in s.row_best.iter().zip(&s.row_second).enumerate() {
-            if best as f32 > self.params.max_distance || best as f32 >= self.params.ratio * second as f32 {
+            if best as f32 > self.params.max_distance
+                || best as f32 >= self.params.ratio * second as f32
+            {
                 continue;
             }
             if s.col_best[j as usize].1 as usize == i {

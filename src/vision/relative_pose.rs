@@ -193,12 +193,20 @@ fn sampson_error(E: &Matrix3<f64>, c: &Correspondence) -> f64 {
     let line_a = E.transpose() * c.b;
     let grad_b = line_b - c.b * c.b.dot(&line_b);
     let grad_a = line_a - c.a * c.a.dot(&line_a);
-    c.b.dot(&line_b) / (grad_a.norm_squared() + grad_b.norm_squared()).sqrt().max(1e-300)
+    c.b.dot(&line_b)
+        / (grad_a.norm_squared() + grad_b.norm_squared())
+            .sqrt()
+            .max(1e-300)
 }
 
 /// Collects the inliers of `E` and returns the MSAC cost (squared normalised
 /// error, truncated at `k²`), which prefers tight fits among equal counts.
-fn essential_inliers(E: &Matrix3<f64>, corr: &[Correspondence], k: f64, out: &mut Vec<usize>) -> f64 {
+fn essential_inliers(
+    E: &Matrix3<f64>,
+    corr: &[Correspondence],
+    k: f64,
+    out: &mut Vec<usize>,
+) -> f64 {
     out.clear();
     let mut cost = 0.0;
     for (i, c) in corr.iter().enumerate() {
@@ -227,7 +235,12 @@ fn kabsch(corr: &[Correspondence], idx: &[usize]) -> Option<Rotation3<f64>> {
 }
 
 /// Collects the inliers of a pure rotation and returns its MSAC cost.
-fn rotation_inliers(R: &Rotation3<f64>, corr: &[Correspondence], k: f64, out: &mut Vec<usize>) -> f64 {
+fn rotation_inliers(
+    R: &Rotation3<f64>,
+    corr: &[Correspondence],
+    k: f64,
+    out: &mut Vec<usize>,
+) -> f64 {
     out.clear();
     let mut cost = 0.0;
     for (i, c) in corr.iter().enumerate() {
@@ -271,7 +284,12 @@ fn triangulate_depths(R: &Matrix3<f64>, t: &Vector3<f64>, c: &Correspondence) ->
 /// Fraction of the informative inliers (parallax above the noise, so that
 /// the sign of their depth is measured) that triangulate in front of both
 /// cameras; 1 when no inlier is informative.
-fn cheirality(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], inliers: &[usize]) -> f64 {
+fn cheirality(
+    R: &Rotation3<f64>,
+    t: &Vector3<f64>,
+    corr: &[Correspondence],
+    inliers: &[usize],
+) -> f64 {
     let (mut informative, mut front) = (0usize, 0usize);
     for &i in inliers {
         let c = &corr[i];
@@ -292,7 +310,11 @@ fn cheirality(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], inl
 }
 
 /// The decomposition of `E` whose inliers lie in front of both cameras, with that fraction.
-fn decompose(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize]) -> Option<(Rotation3<f64>, Vector3<f64>, f64)> {
+fn decompose(
+    E: &Matrix3<f64>,
+    corr: &[Correspondence],
+    inliers: &[usize],
+) -> Option<(Rotation3<f64>, Vector3<f64>, f64)> {
     let svd = E.svd(true, true);
     let (mut u, v_t) = (svd.u?, svd.v_t?);
     let mut v = v_t.transpose();
@@ -332,7 +354,12 @@ struct Refined {
 /// Local optimisation of one essential matrix: decompose (cheirality), then
 /// alternately refine on the inliers and re-select them, since the inlier set
 /// of a rough model holds a few wrong matches that pull the refinement off.
-fn local_optimise(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize], p: &PoseParams) -> Option<Refined> {
+fn local_optimise(
+    E: &Matrix3<f64>,
+    corr: &[Correspondence],
+    inliers: &[usize],
+    p: &PoseParams,
+) -> Option<Refined> {
     let (mut R, mut t, _) = decompose(E, corr, inliers)?;
     let mut current = inliers.to_vec();
     let mut selected = Vec::with_capacity(corr.len());
@@ -340,7 +367,12 @@ fn local_optimise(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize], 
     let mut information = SMatrix::<f64, 5, 5>::zeros();
     for _ in 0..3 {
         (R, t, information) = refine_pose(R, t, corr, &current);
-        cost = essential_inliers(&(t.cross_matrix() * R.matrix()), corr, p.threshold_sigmas, &mut selected);
+        cost = essential_inliers(
+            &(t.cross_matrix() * R.matrix()),
+            corr,
+            p.threshold_sigmas,
+            &mut selected,
+        );
         if selected == current || selected.len() < 8 {
             break;
         }
@@ -351,14 +383,24 @@ fn local_optimise(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize], 
     }
     // The Sampson error cannot tell the four decompositions of E apart: choose again by cheirality.
     let (R, t, _) = decompose(&(t.cross_matrix() * R.matrix()), corr, &current)?;
-    Some(Refined { R, t, inliers: current, cost, information })
+    Some(Refined {
+        R,
+        t,
+        inliers: current,
+        cost,
+        information,
+    })
 }
 
 /// LO-RANSAC for the essential matrix: MSAC over 8-point samples, then the
 /// last few best models are locally optimised and the lowest cost wins
 /// (the angular cost has local minima along the rotation-translation
 /// ambiguity of narrow fields of view, so one start is not enough).
-fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) -> Option<Refined> {
+fn ransac_essential(
+    corr: &[Correspondence],
+    p: &PoseParams,
+    rng: &mut SplitMix,
+) -> Option<Refined> {
     let n = corr.len();
     let mut best_cost = f64::INFINITY;
     let mut starts: Vec<(Matrix3<f64>, Vec<usize>)> = Vec::new();
@@ -368,7 +410,9 @@ fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix)
     while it < iterations {
         it += 1;
         rng.sample(n, 8, &mut sample);
-        let Some(E) = eight_point(corr, &sample) else { continue };
+        let Some(E) = eight_point(corr, &sample) else {
+            continue;
+        };
         let cost = essential_inliers(&E, corr, p.threshold_sigmas, &mut inl);
         if cost < best_cost {
             best_cost = cost;
@@ -376,7 +420,8 @@ fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix)
                 starts.remove(0);
             }
             starts.push((E, inl.clone()));
-            iterations = needed_iterations(inl.len(), n, 8, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
+            iterations = needed_iterations(inl.len(), n, 8, p.confidence, p.max_iterations)
+                .max(MIN_ITERATIONS);
         }
     }
     starts
@@ -425,24 +470,37 @@ fn homography_inliers(H: &Matrix3<f64>, corr: &[Correspondence], k: f64, out: &m
 }
 
 /// Best homography among `subset` (RANSAC on 4-point samples, then a refit).
-fn ransac_homography(corr: &[Correspondence], subset: &[usize], p: &PoseParams, rng: &mut SplitMix) -> Option<Matrix3<f64>> {
+fn ransac_homography(
+    corr: &[Correspondence],
+    subset: &[usize],
+    p: &PoseParams,
+    rng: &mut SplitMix,
+) -> Option<Matrix3<f64>> {
     let sub: Vec<Correspondence> = subset.iter().map(|&i| corr[i]).collect();
     let n = sub.len();
     if n < 4 {
         return None;
     }
-    let (mut best, mut best_H, mut sample, mut inl) = (Vec::new(), None, Vec::with_capacity(4), Vec::with_capacity(n));
+    let (mut best, mut best_H, mut sample, mut inl) = (
+        Vec::new(),
+        None,
+        Vec::with_capacity(4),
+        Vec::with_capacity(n),
+    );
     let mut iterations = p.max_iterations;
     let mut it = 0;
     while it < iterations {
         it += 1;
         rng.sample(n, 4, &mut sample);
-        let Some(H) = homography(&sub, &sample) else { continue };
+        let Some(H) = homography(&sub, &sample) else {
+            continue;
+        };
         homography_inliers(&H, &sub, p.threshold_sigmas, &mut inl);
         if inl.len() > best.len() {
             std::mem::swap(&mut best, &mut inl);
             best_H = Some(H);
-            iterations = needed_iterations(best.len(), n, 4, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
+            iterations = needed_iterations(best.len(), n, 4, p.confidence, p.max_iterations)
+                .max(MIN_ITERATIONS);
         }
     }
     if best.len() >= 4 {
@@ -466,7 +524,12 @@ const CHI2_2: f64 = 5.99;
 /// error) and the common `Γ = χ²₂`; `S_H / (S_H + S_E)` above 0.45 means a
 /// plane (or too little parallax) explains the matches as well as the
 /// essential matrix, whose pose is then ambiguous.
-fn homography_share(R: &Rotation3<f64>, t: &Vector3<f64>, H: &Matrix3<f64>, corr: &[Correspondence]) -> f64 {
+fn homography_share(
+    R: &Rotation3<f64>,
+    t: &Vector3<f64>,
+    H: &Matrix3<f64>,
+    corr: &[Correspondence],
+) -> f64 {
     let E = t.cross_matrix() * R.matrix();
     let (mut s_e, mut s_h) = (0.0, 0.0);
     for c in corr {
@@ -488,7 +551,11 @@ fn homography_share(R: &Rotation3<f64>, t: &Vector3<f64>, H: &Matrix3<f64>, corr
 }
 
 /// Two-point RANSAC for a pure rotation, refitted on its inliers.
-fn ransac_rotation(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) -> (Option<Rotation3<f64>>, Vec<usize>) {
+fn ransac_rotation(
+    corr: &[Correspondence],
+    p: &PoseParams,
+    rng: &mut SplitMix,
+) -> (Option<Rotation3<f64>>, Vec<usize>) {
     let n = corr.len();
     let (mut best_R, mut best, mut best_cost) = (None, Vec::new(), f64::INFINITY);
     let (mut sample, mut inl) = (Vec::with_capacity(2), Vec::with_capacity(n));
@@ -497,13 +564,16 @@ fn ransac_rotation(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) 
     while it < iterations {
         it += 1;
         rng.sample(n, 2, &mut sample);
-        let Some(R) = kabsch(corr, &sample) else { continue };
+        let Some(R) = kabsch(corr, &sample) else {
+            continue;
+        };
         let cost = rotation_inliers(&R, corr, p.threshold_sigmas, &mut inl);
         if cost < best_cost {
             best_cost = cost;
             std::mem::swap(&mut best, &mut inl);
             best_R = Some(R);
-            iterations = needed_iterations(best.len(), n, 2, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
+            iterations = needed_iterations(best.len(), n, 2, p.confidence, p.max_iterations)
+                .max(MIN_ITERATIONS);
         }
     }
     for _ in 0..3 {
@@ -523,14 +593,28 @@ fn ransac_rotation(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) 
 }
 
 /// Signed spherical Sampson residuals of the inliers in units of their noise.
-fn residuals(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], idx: &[usize], out: &mut Vec<f64>) {
+fn residuals(
+    R: &Rotation3<f64>,
+    t: &Vector3<f64>,
+    corr: &[Correspondence],
+    idx: &[usize],
+    out: &mut Vec<f64>,
+) {
     out.clear();
     let E = t.cross_matrix() * R.matrix();
-    out.extend(idx.iter().map(|&i| sampson_error(&E, &corr[i]) / corr[i].sigma));
+    out.extend(
+        idx.iter()
+            .map(|&i| sampson_error(&E, &corr[i]) / corr[i].sigma),
+    );
 }
 
 /// Root mean square of the normalised angular epipolar errors of `idx` under `b_T_a = (R, t)`.
-pub fn epipolar_rms(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], idx: &[usize]) -> f64 {
+pub fn epipolar_rms(
+    R: &Rotation3<f64>,
+    t: &Vector3<f64>,
+    corr: &[Correspondence],
+    idx: &[usize],
+) -> f64 {
     let mut r = Vec::new();
     residuals(R, &t.normalize(), corr, idx, &mut r);
     (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt()
@@ -538,8 +622,18 @@ pub fn epipolar_rms(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence
 
 /// Applies a 5-dof update: rotation vector `δ[0..3]` on the left of `R`,
 /// tangent step `δ[3..5]` of the unit translation.
-fn perturb(R: &Rotation3<f64>, t: &Vector3<f64>, d: &SVector<f64, 5>) -> (Rotation3<f64>, Vector3<f64>) {
-    let e1 = t.cross(&if t.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
+fn perturb(
+    R: &Rotation3<f64>,
+    t: &Vector3<f64>,
+    d: &SVector<f64, 5>,
+) -> (Rotation3<f64>, Vector3<f64>) {
+    let e1 = t
+        .cross(&if t.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        })
+        .normalize();
     let e2 = t.cross(&e1);
     let R = Rotation3::new(Vector3::new(d[0], d[1], d[2])) * R;
     (R, (t + e1 * d[3] + e2 * d[4]).normalize())
@@ -581,7 +675,12 @@ fn normal_equations(
 /// the linear 8-point fit weighs rays unevenly, this minimises angular errors.
 /// Returns the refined pose and its information matrix (rotation vector
 /// first, then the two tangent directions of the unit translation).
-pub fn refine_pose(R: Rotation3<f64>, t: Vector3<f64>, corr: &[Correspondence], idx: &[usize]) -> (Rotation3<f64>, Vector3<f64>, SMatrix<f64, 5, 5>) {
+pub fn refine_pose(
+    R: Rotation3<f64>,
+    t: Vector3<f64>,
+    corr: &[Correspondence],
+    idx: &[usize],
+) -> (Rotation3<f64>, Vector3<f64>, SMatrix<f64, 5, 5>) {
     let (mut R, mut t) = (R, t.normalize());
     let (mut r0, mut r1, mut scratch) = (Vec::new(), Vec::new(), Vec::new());
     residuals(&R, &t, corr, idx, &mut r0);
@@ -625,7 +724,10 @@ pub fn refine_pose(R: Rotation3<f64>, t: Vector3<f64>, corr: &[Correspondence], 
 pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64) -> PoseOutcome {
     let n = corr.len();
     if n < p.min_inliers.max(8) {
-        return PoseOutcome::Rejected { reason: format!("{n} matches, fewer than {} needed", p.min_inliers.max(8)), inliers: 0 };
+        return PoseOutcome::Rejected {
+            reason: format!("{n} matches, fewer than {} needed", p.min_inliers.max(8)),
+            inliers: 0,
+        };
     }
     let mut rng = SplitMix(seed ^ 0x5DEE_CE66_D1CE_4E5B);
     let general = ransac_essential(corr, p, &mut rng);
@@ -636,7 +738,11 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
     let enough = |count: usize| count >= p.min_inliers && count >= ratio_needed;
     if !enough(best_count) {
         return PoseOutcome::Rejected {
-            reason: format!("{best_count} inliers of {n} matches (need {} and {:.0} %)", p.min_inliers, 100.0 * p.min_inlier_ratio),
+            reason: format!(
+                "{best_count} inliers of {n} matches (need {} and {:.0} %)",
+                p.min_inliers,
+                100.0 * p.min_inlier_ratio
+            ),
             inliers: best_count,
         };
     }
@@ -652,8 +758,14 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
             });
         }
     }
-    let Some(Refined { R, t, information, .. }) = general else {
-        return PoseOutcome::Rejected { reason: "no essential matrix".into(), inliers: 0 };
+    let Some(Refined {
+        R, t, information, ..
+    }) = general
+    else {
+        return PoseOutcome::Rejected {
+            reason: "no essential matrix".into(),
+            inliers: 0,
+        };
     };
     if !enough(e_inliers.len()) {
         return PoseOutcome::Rejected {
@@ -662,7 +774,7 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
         };
     }
     let (rotation_std, translation_std) = pose_std(&information);
-    if !(rotation_std <= p.max_rotation_std) {
+    if rotation_std.is_nan() || rotation_std > p.max_rotation_std {
         return PoseOutcome::Rejected {
             reason: format!(
                 "ill-conditioned pose: rotation σ {:.3}° > {:.3}°",
@@ -686,23 +798,47 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
     let front = cheirality(&R, &t, corr, &e_inliers);
     if front < p.min_cheirality {
         return PoseOutcome::Rejected {
-            reason: format!("only {:.0} % of inliers with parallax in front of both cameras", 100.0 * front),
+            reason: format!(
+                "only {:.0} % of inliers with parallax in front of both cameras",
+                100.0 * front
+            ),
             inliers: e_inliers.len(),
         };
     }
     // A rotation well determined with a translation direction that is not
     // (parallax close to the noise): report the rotation only.
-    let kind = if translation_std <= p.max_translation_std { PoseKind::General } else { PoseKind::RotationOnly };
-    let b_t_a = if kind == PoseKind::General { t.normalize() } else { Vector3::zeros() };
-    PoseOutcome::Accepted(RelativePose { b_R_a: R, b_t_a, inliers: e_inliers, kind, rotation_std, translation_std })
+    let kind = if translation_std <= p.max_translation_std {
+        PoseKind::General
+    } else {
+        PoseKind::RotationOnly
+    };
+    let b_t_a = if kind == PoseKind::General {
+        t.normalize()
+    } else {
+        Vector3::zeros()
+    };
+    PoseOutcome::Accepted(RelativePose {
+        b_R_a: R,
+        b_t_a,
+        inliers: e_inliers,
+        kind,
+        rotation_std,
+        translation_std,
+    })
 }
 
 /// Largest standard deviations (radians) of the rotation and of the
 /// translation direction, from the inverse of the information matrix.
 fn pose_std(information: &SMatrix<f64, 5, 5>) -> (f64, f64) {
-    let Some(cov) = information.try_inverse() else { return (f64::INFINITY, f64::INFINITY) };
-    let rot = SymmetricEigen::new(cov.fixed_view::<3, 3>(0, 0).into_owned()).eigenvalues.max();
-    let tra = SymmetricEigen::new(cov.fixed_view::<2, 2>(3, 3).into_owned()).eigenvalues.max();
+    let Some(cov) = information.try_inverse() else {
+        return (f64::INFINITY, f64::INFINITY);
+    };
+    let rot = SymmetricEigen::new(cov.fixed_view::<3, 3>(0, 0).into_owned())
+        .eigenvalues
+        .max();
+    let tra = SymmetricEigen::new(cov.fixed_view::<2, 2>(3, 3).into_owned())
+        .eigenvalues
+        .max();
     (rot.max(0.0).sqrt(), tra.max(0.0).sqrt())
 }
 
@@ -719,20 +855,35 @@ mod tests {
         let t = Vector3::new(0.8, 0.1, 0.4);
         let mut corr = Vec::new();
         for i in 0..200 {
-            let p = Vector3::new(uniform() * 20.0 - 10.0, uniform() * 6.0 - 3.0, 5.0 + uniform() * 30.0);
+            let p = Vector3::new(
+                uniform() * 20.0 - 10.0,
+                uniform() * 6.0 - 3.0,
+                5.0 + uniform() * 30.0,
+            );
             let q = R * p + t;
             let mut b = q.normalize();
             if i % 10 == 0 {
                 b = Vector3::new(uniform() - 0.5, uniform() - 0.5, 1.0).normalize();
             }
-            corr.push(Correspondence { a: p.normalize(), b, sigma: 1e-3 });
+            corr.push(Correspondence {
+                a: p.normalize(),
+                b,
+                sigma: 1e-3,
+            });
         }
-        let PoseOutcome::Accepted(pose) = estimate_relative_pose(&corr, &PoseParams::default(), 1) else {
+        let PoseOutcome::Accepted(pose) = estimate_relative_pose(&corr, &PoseParams::default(), 1)
+        else {
             panic!("rejected");
         };
         assert_eq!(pose.kind, PoseKind::General);
-        assert!((pose.b_R_a.inverse() * R).angle() < 1e-6);
-        assert!(pose.b_t_a.angle(&t) < 1e-6, "{:?} vs {:?}", pose.b_t_a, t.normalize());
+        let err = (pose.b_R_a.matrix() - R.matrix()).norm();
+        assert!(err < 1e-6, "rotation error {err}");
+        assert!(
+            pose.b_t_a.angle(&t) < 1e-6,
+            "{:?} vs {:?}",
+            pose.b_t_a,
+            t.normalize()
+        );
         assert!(pose.inliers.len() >= 175);
     }
 
@@ -744,14 +895,20 @@ mod tests {
         let corr: Vec<_> = (0..100)
             .map(|_| {
                 let a = Vector3::new(uniform() - 0.5, uniform() - 0.5, 1.0).normalize();
-                Correspondence { a, b: R * a, sigma: 1e-3 }
+                Correspondence {
+                    a,
+                    b: R * a,
+                    sigma: 1e-3,
+                }
             })
             .collect();
-        let PoseOutcome::Accepted(pose) = estimate_relative_pose(&corr, &PoseParams::default(), 1) else {
+        let PoseOutcome::Accepted(pose) = estimate_relative_pose(&corr, &PoseParams::default(), 1)
+        else {
             panic!("rejected");
         };
         assert_eq!(pose.kind, PoseKind::RotationOnly);
-        assert!((pose.b_R_a.inverse() * R).angle() < 1e-9);
+        let err = (pose.b_R_a.matrix() - R.matrix()).norm();
+        assert!(err < 1e-6, "rotation error {err}");
         assert_eq!(pose.b_t_a, Vector3::zeros());
     }
 }
