@@ -35,9 +35,12 @@
 
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, SymmetricEigen, Vector3};
 
+use super::homography::{homography_share, ransac_homography};
+pub use super::refine::{epipolar_rms, refine_pose, sampson_error};
+
 /// RANSAC always draws at least this many samples: adaptive stopping alone
 /// ends too early when a near-degenerate sample (all far points) fits many.
-const MIN_ITERATIONS: usize = 50;
+pub(super) const MIN_ITERATIONS: usize = 50;
 
 /// One matched pair of bearings with their angular noise (radians).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -133,10 +136,10 @@ pub enum PoseOutcome {
 }
 
 /// SplitMix64: a tiny deterministic generator so verdicts are reproducible.
-struct SplitMix(u64);
+pub(super) struct SplitMix(pub(super) u64);
 
 impl SplitMix {
-    fn next(&mut self) -> u64 {
+    pub(super) fn next(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -145,7 +148,7 @@ impl SplitMix {
     }
 
     /// `k` distinct indices below `n` (k << n).
-    fn sample(&mut self, n: usize, k: usize, out: &mut Vec<usize>) {
+    pub(super) fn sample(&mut self, n: usize, k: usize, out: &mut Vec<usize>) {
         out.clear();
         while out.len() < k {
             let i = (self.next() % n as u64) as usize;
@@ -183,20 +186,6 @@ fn eight_point(corr: &[Correspondence], idx: &[usize]) -> Option<Matrix3<f64>> {
     let (u, v_t) = (svd.u?, svd.v_t?);
     let E = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0)) * v_t;
     E.iter().all(|v| v.is_finite()).then_some(E)
-}
-
-/// Spherical Sampson error (radians): `fᵦᵀ E fₐ` over the norm of its
-/// gradient in the tangent planes of both bearings, the first-order angular
-/// distance of the pair to the epipolar constraint.
-fn sampson_error(E: &Matrix3<f64>, c: &Correspondence) -> f64 {
-    let line_b = E * c.a;
-    let line_a = E.transpose() * c.b;
-    let grad_b = line_b - c.b * c.b.dot(&line_b);
-    let grad_a = line_a - c.a * c.a.dot(&line_a);
-    c.b.dot(&line_b)
-        / (grad_a.norm_squared() + grad_b.norm_squared())
-            .sqrt()
-            .max(1e-300)
 }
 
 /// Collects the inliers of `E` and returns the MSAC cost (squared normalised
@@ -256,7 +245,7 @@ fn rotation_inliers(
 }
 
 /// Iterations needed to draw one all-inlier sample of size `s` with probability `p`.
-fn needed_iterations(inliers: usize, n: usize, s: i32, p: f64, cap: usize) -> usize {
+pub(super) fn needed_iterations(inliers: usize, n: usize, s: i32, p: f64, cap: usize) -> usize {
     let w = inliers as f64 / n as f64;
     let all = w.powi(s);
     if all <= 0.0 {
@@ -431,125 +420,6 @@ fn ransac_essential(
         .min_by(|a, b| a.cost.total_cmp(&b.cost))
 }
 
-/// Homography between bearings, `f_b ∝ H f_a`, from >= 4 correspondences
-/// (least squares on `f_b × H f_a = 0`).
-fn homography(corr: &[Correspondence], idx: &[usize]) -> Option<Matrix3<f64>> {
-    let mut ata = SMatrix::<f64, 9, 9>::zeros();
-    for &i in idx {
-        let (a, b) = (&corr[i].a, &corr[i].b);
-        let mut rows = [SVector::<f64, 9>::zeros(); 3];
-        for j in 0..3 {
-            rows[0][6 + j] = b.y * a[j];
-            rows[0][3 + j] = -b.z * a[j];
-            rows[1][j] = b.z * a[j];
-            rows[1][6 + j] = -b.x * a[j];
-            rows[2][3 + j] = b.x * a[j];
-            rows[2][j] = -b.y * a[j];
-        }
-        for r in &rows {
-            ata.syger(1.0, r, r, 1.0);
-        }
-    }
-    let eig = SymmetricEigen::new(ata);
-    let k = eig.eigenvalues.imin();
-    let h = eig.eigenvectors.column(k);
-    let H = Matrix3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
-    H.iter().all(|v| v.is_finite()).then_some(H)
-}
-
-/// Inliers of a homography: the angle between `f_b` and `±H f_a` below `k σ`.
-fn homography_inliers(H: &Matrix3<f64>, corr: &[Correspondence], k: f64, out: &mut Vec<usize>) {
-    out.clear();
-    for (i, c) in corr.iter().enumerate() {
-        let v = H * c.a;
-        let sin = c.b.cross(&v).norm() / v.norm().max(1e-300);
-        if sin < k * c.sigma {
-            out.push(i);
-        }
-    }
-}
-
-/// Best homography among `subset` (RANSAC on 4-point samples, then a refit).
-fn ransac_homography(
-    corr: &[Correspondence],
-    subset: &[usize],
-    p: &PoseParams,
-    rng: &mut SplitMix,
-) -> Option<Matrix3<f64>> {
-    let sub: Vec<Correspondence> = subset.iter().map(|&i| corr[i]).collect();
-    let n = sub.len();
-    if n < 4 {
-        return None;
-    }
-    let (mut best, mut best_H, mut sample, mut inl) = (
-        Vec::new(),
-        None,
-        Vec::with_capacity(4),
-        Vec::with_capacity(n),
-    );
-    let mut iterations = p.max_iterations;
-    let mut it = 0;
-    while it < iterations {
-        it += 1;
-        rng.sample(n, 4, &mut sample);
-        let Some(H) = homography(&sub, &sample) else {
-            continue;
-        };
-        homography_inliers(&H, &sub, p.threshold_sigmas, &mut inl);
-        if inl.len() > best.len() {
-            std::mem::swap(&mut best, &mut inl);
-            best_H = Some(H);
-            iterations = needed_iterations(best.len(), n, 4, p.confidence, p.max_iterations)
-                .max(MIN_ITERATIONS);
-        }
-    }
-    if best.len() >= 4 {
-        if let Some(H) = homography(&sub, &best) {
-            homography_inliers(&H, &sub, p.threshold_sigmas, &mut inl);
-            if inl.len() >= best.len() {
-                return Some(H);
-            }
-        }
-    }
-    best_H
-}
-
-/// Chi-square bounds (95 %) of a one- and a two-dimensional normalised error.
-const CHI2_1: f64 = 3.84;
-const CHI2_2: f64 = 5.99;
-
-/// Share of the homography in the model-selection scores of ORB-SLAM
-/// (Mur-Artal et al. 2015): `S_M = Σ max(0, Γ - e²)` over all matches with the
-/// model's inlier bound (`χ²₁` for the epipolar, `χ²₂` for the transfer
-/// error) and the common `Γ = χ²₂`; `S_H / (S_H + S_E)` above 0.45 means a
-/// plane (or too little parallax) explains the matches as well as the
-/// essential matrix, whose pose is then ambiguous.
-fn homography_share(
-    R: &Rotation3<f64>,
-    t: &Vector3<f64>,
-    H: &Matrix3<f64>,
-    corr: &[Correspondence],
-) -> f64 {
-    let E = t.cross_matrix() * R.matrix();
-    let (mut s_e, mut s_h) = (0.0, 0.0);
-    for c in corr {
-        let e2 = (sampson_error(&E, c) / c.sigma).powi(2);
-        if e2 < CHI2_1 {
-            s_e += CHI2_2 - e2;
-        }
-        let v = H * c.a;
-        let h2 = (c.b.cross(&v).norm() / v.norm().max(1e-300) / c.sigma).powi(2);
-        if h2 < CHI2_2 {
-            s_h += CHI2_2 - h2;
-        }
-    }
-    if s_e + s_h <= 0.0 {
-        0.0
-    } else {
-        s_h / (s_e + s_h)
-    }
-}
-
 /// Two-point RANSAC for a pure rotation, refitted on its inliers.
 fn ransac_rotation(
     corr: &[Correspondence],
@@ -590,133 +460,6 @@ fn ransac_rotation(
         best_R = Some(R);
     }
     (best_R, best)
-}
-
-/// Signed spherical Sampson residuals of the inliers in units of their noise.
-fn residuals(
-    R: &Rotation3<f64>,
-    t: &Vector3<f64>,
-    corr: &[Correspondence],
-    idx: &[usize],
-    out: &mut Vec<f64>,
-) {
-    out.clear();
-    let E = t.cross_matrix() * R.matrix();
-    out.extend(
-        idx.iter()
-            .map(|&i| sampson_error(&E, &corr[i]) / corr[i].sigma),
-    );
-}
-
-/// Root mean square of the normalised angular epipolar errors of `idx` under `b_T_a = (R, t)`.
-pub fn epipolar_rms(
-    R: &Rotation3<f64>,
-    t: &Vector3<f64>,
-    corr: &[Correspondence],
-    idx: &[usize],
-) -> f64 {
-    let mut r = Vec::new();
-    residuals(R, &t.normalize(), corr, idx, &mut r);
-    (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt()
-}
-
-/// Applies a 5-dof update: rotation vector `δ[0..3]` on the left of `R`,
-/// tangent step `δ[3..5]` of the unit translation.
-fn perturb(
-    R: &Rotation3<f64>,
-    t: &Vector3<f64>,
-    d: &SVector<f64, 5>,
-) -> (Rotation3<f64>, Vector3<f64>) {
-    let e1 = t
-        .cross(&if t.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        })
-        .normalize();
-    let e2 = t.cross(&e1);
-    let R = Rotation3::new(Vector3::new(d[0], d[1], d[2])) * R;
-    (R, (t + e1 * d[3] + e2 * d[4]).normalize())
-}
-
-/// `JᵀJ` and `Jᵀr` of the residuals at `(R, t)` (forward differences);
-/// with residuals in units of their noise `JᵀJ` is the pose information matrix.
-fn normal_equations(
-    R: &Rotation3<f64>,
-    t: &Vector3<f64>,
-    corr: &[Correspondence],
-    idx: &[usize],
-    r0: &[f64],
-    scratch: &mut Vec<f64>,
-) -> (SMatrix<f64, 5, 5>, SVector<f64, 5>) {
-    let h = 1e-7;
-    let mut columns = vec![Vec::new(); 5];
-    for (k, column) in columns.iter_mut().enumerate() {
-        let mut d = SVector::<f64, 5>::zeros();
-        d[k] = h;
-        let (Rp, tp) = perturb(R, t, &d);
-        residuals(&Rp, &tp, corr, idx, scratch);
-        *column = scratch.iter().zip(r0).map(|(p, q)| (p - q) / h).collect();
-    }
-    let mut jtj = SMatrix::<f64, 5, 5>::zeros();
-    let mut jtr = SVector::<f64, 5>::zeros();
-    for p in 0..5 {
-        jtr[p] = columns[p].iter().zip(r0).map(|(j, r)| j * r).sum();
-        for q in p..5 {
-            let v: f64 = columns[p].iter().zip(&columns[q]).map(|(x, y)| x * y).sum();
-            jtj[(p, q)] = v;
-            jtj[(q, p)] = v;
-        }
-    }
-    (jtj, jtr)
-}
-
-/// Levenberg-Marquardt on the spherical Sampson residuals of the inliers:
-/// the linear 8-point fit weighs rays unevenly, this minimises angular errors.
-/// Returns the refined pose and its information matrix (rotation vector
-/// first, then the two tangent directions of the unit translation).
-pub fn refine_pose(
-    R: Rotation3<f64>,
-    t: Vector3<f64>,
-    corr: &[Correspondence],
-    idx: &[usize],
-) -> (Rotation3<f64>, Vector3<f64>, SMatrix<f64, 5, 5>) {
-    let (mut R, mut t) = (R, t.normalize());
-    let (mut r0, mut r1, mut scratch) = (Vec::new(), Vec::new(), Vec::new());
-    residuals(&R, &t, corr, idx, &mut r0);
-    let mut cost: f64 = r0.iter().map(|v| v * v).sum();
-    let mut lambda = 1e-3;
-    for _ in 0..100 {
-        let (jtj, jtr) = normal_equations(&R, &t, corr, idx, &r0, &mut scratch);
-        let mut improved = false;
-        for _ in 0..5 {
-            let mut damped = jtj;
-            for k in 0..5 {
-                damped[(k, k)] *= 1.0 + lambda;
-            }
-            let Some(step) = damped.cholesky().map(|c| c.solve(&(-jtr))) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let (Rn, tn) = perturb(&R, &t, &step);
-            residuals(&Rn, &tn, corr, idx, &mut r1);
-            let new_cost: f64 = r1.iter().map(|v| v * v).sum();
-            if new_cost < cost {
-                let gain = (cost - new_cost) / cost.max(1e-300);
-                (R, t, cost) = (Rn, tn, new_cost);
-                std::mem::swap(&mut r0, &mut r1);
-                lambda = (lambda * 0.3).max(1e-9);
-                improved = gain > 1e-10;
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    let (information, _) = normal_equations(&R, &t, corr, idx, &r0, &mut scratch);
-    (R, t, information)
 }
 
 /// Estimates and checks the relative pose `b_T_a` from matched bearings.
