@@ -16,9 +16,18 @@ fn kitti_poses(file: &str) -> Vec<Isometry3<f64>> {
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())
         .map(|(n, line)| {
-            let v: Vec<f64> = line.split_whitespace().map(|x| x.parse().unwrap_or_else(|e| panic!("{file}:{}: {e}", n + 1))).collect();
+            let v: Vec<f64> = line
+                .split_whitespace()
+                .map(|x| {
+                    x.parse()
+                        .unwrap_or_else(|e| panic!("{file}:{}: {e}", n + 1))
+                })
+                .collect();
             let r = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
-            Isometry3::from_parts(Translation3::new(v[3], v[7], v[11]), UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r)))
+            Isometry3::from_parts(
+                Translation3::new(v[3], v[7], v[11]),
+                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r)),
+            )
         })
         .collect()
 }
@@ -36,9 +45,36 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut per_kind = 12usize;
     let mut seqs = Vec::new();
+    let mut params = VerifierParams::default();
+    let mut max_heading = 30f64.to_radians();
+    let mut min_heading = 0.0;
     let mut it = args.iter();
     while let Some(a) = it.next() {
-        if a == "--pairs" {
+        if a == "--max-heading" {
+            max_heading = it
+                .next()
+                .and_then(|v| v.parse::<f64>().ok())
+                .expect("--max-heading DEG")
+                .to_radians();
+        } else if a == "--min-heading" {
+            min_heading = it
+                .next()
+                .and_then(|v| v.parse::<f64>().ok())
+                .expect("--min-heading DEG")
+                .to_radians();
+        } else if a == "--min-cheirality" {
+            params.pose.min_cheirality = it
+                .next()
+                .and_then(|v| v.parse().ok())
+                .expect("--min-cheirality X");
+        } else if a == "--ratio" {
+            params.matching.ratio = it.next().and_then(|v| v.parse().ok()).expect("--ratio X");
+        } else if a == "--features" {
+            params.orb.max_features = it
+                .next()
+                .and_then(|v| v.parse().ok())
+                .expect("--features N");
+        } else if a == "--pairs" {
             per_kind = it.next().and_then(|v| v.parse().ok()).expect("--pairs N");
         } else {
             seqs.push(a.clone());
@@ -51,20 +87,31 @@ fn main() {
     let pinhole = CameraModel::standard_pinhole(w, h, 90f64.to_radians());
     let fisheye = CameraModel::standard_fisheye(w, h, 190f64.to_radians());
     let omni = CameraModel::standard_omni(w, h, 0.9, 200f64.to_radians());
-    let pairings = [("pinhole-pinhole", pinhole, pinhole), ("pinhole-fisheye", pinhole, fisheye), ("pinhole-omni", pinhole, omni), ("fisheye-omni", fisheye, omni)];
+    let pairings = [
+        ("pinhole-pinhole", pinhole, pinhole),
+        ("pinhole-fisheye", pinhole, fisheye),
+        ("pinhole-omni", pinhole, omni),
+        ("fisheye-omni", fisheye, omni),
+    ];
     let mut totals = vec![(0usize, 0usize, 0usize, 0usize); pairings.len()];
     let mut verify_time = std::time::Duration::ZERO;
     let mut verify_count = 0usize;
     for seq in &seqs {
-        let poses = kitti_poses(&format!("{}/tests/data/{seq}.txt", env!("CARGO_MANIFEST_DIR")));
+        let poses = kitti_poses(&format!(
+            "{}/tests/data/{seq}.txt",
+            env!("CARGO_MANIFEST_DIR")
+        ));
         let positions: Vec<_> = poses.iter().map(|p| p.translation.vector).collect();
         let world = World::from_positions(&positions, WorldParams::default()).expect("world");
-        // True revisits: within 3 m, heading within 30 deg, at least 300 frames apart.
+        // True revisits: within 3 m, heading within 30 deg (--max-heading), at least 300 frames apart.
         let mut trues = Vec::new();
         let mut i = 0;
         while i < poses.len() {
             let found = (i + 300..poses.len()).find(|&j| {
-                (positions[i] - positions[j]).norm() < 3.0 && heading_difference(&poses[i], &poses[j]) < 30f64.to_radians()
+                let heading = heading_difference(&poses[i], &poses[j]);
+                (positions[i] - positions[j]).norm() < 3.0
+                    && heading < max_heading
+                    && heading >= min_heading
             });
             if let Some(j) = found {
                 trues.push((i, j));
@@ -88,7 +135,7 @@ fn main() {
             k += 1;
         }
         for (p, (name, ca, cb)) in pairings.iter().enumerate() {
-            let mut v = OrbVerifier::new(VerifierParams::default()).expect("verifier");
+            let mut v = OrbVerifier::new(params).expect("verifier");
             let (mut tp, mut fp) = (0, 0);
             let mut failures = Vec::new();
             for (label, list) in [("true", &trues), ("false", &falses)] {
@@ -96,15 +143,54 @@ fn main() {
                     let ia = render(&world, ca, on_road(&poses[i]), w, h);
                     let ib = render(&world, cb, on_road(&poses[j]), w, h);
                     let (ida, idb) = (2 * i as u64, 2 * j as u64 + 1);
-                    v.add_keyframe(ida, *ca, GrayImage { data: &ia, width: w, height: h, stride: w }).expect("add");
-                    v.add_keyframe(idb, *cb, GrayImage { data: &ib, width: w, height: h, stride: w }).expect("add");
+                    v.add_keyframe(
+                        ida,
+                        *ca,
+                        GrayImage {
+                            data: &ia,
+                            width: w,
+                            height: h,
+                            stride: w,
+                        },
+                    )
+                    .expect("add");
+                    v.add_keyframe(
+                        idb,
+                        *cb,
+                        GrayImage {
+                            data: &ib,
+                            width: w,
+                            height: h,
+                            stride: w,
+                        },
+                    )
+                    .expect("add");
                     let t0 = std::time::Instant::now();
                     let verdict = v.verify(ida, idb);
                     verify_time += t0.elapsed();
                     verify_count += 1;
                     if std::env::var_os("VERBOSE").is_some() {
-                        let stds = verdict.pose.as_ref().map(|p| (p.rotation_std.to_degrees(), p.translation_std.to_degrees()));
-                        println!("  {label} {i}-{j}: {} matches, {} ({stds:?})", verdict.matches, verdict.reason);
+                        // Ground truth b_T_a of the rendered poses.
+                        let gt = on_road(&poses[j]).inverse() * on_road(&poses[i]);
+                        let errors = verdict.pose.as_ref().map(|p| {
+                            let r = (p.b_R_a.inverse() * gt.rotation.to_rotation_matrix())
+                                .angle()
+                                .to_degrees();
+                            let t = if p.b_t_a.norm() > 0.0 {
+                                p.b_t_a.angle(&gt.translation.vector).to_degrees()
+                            } else {
+                                f64::NAN
+                            };
+                            format!(
+                                "rot err {r:.2} deg, t err {t:.1} deg, σ {:.2}/{:.1} deg",
+                                p.rotation_std.to_degrees(),
+                                p.translation_std.to_degrees()
+                            )
+                        });
+                        println!(
+                            "  {label} {i}-{j}: {} matches, {} {errors:?}",
+                            verdict.matches, verdict.reason
+                        );
                     }
                     if label == "true" {
                         if verdict.confirmed() {
@@ -118,7 +204,11 @@ fn main() {
                     }
                 }
             }
-            println!("{seq} {name:16} confirmed {tp}/{} true, {fp}/{} false", trues.len(), falses.len());
+            println!(
+                "{seq} {name:16} confirmed {tp}/{} true, {fp}/{} false",
+                trues.len(),
+                falses.len()
+            );
             for f in failures {
                 println!("{f}");
             }
@@ -130,8 +220,15 @@ fn main() {
     }
     println!("== totals");
     for ((name, _, _), (tp, nt, fp, nf)) in pairings.iter().zip(&totals) {
-        let precision = if tp + fp > 0 { *tp as f64 / (*tp + *fp) as f64 } else { 1.0 };
+        let precision = if tp + fp > 0 {
+            *tp as f64 / (*tp + *fp) as f64
+        } else {
+            1.0
+        };
         println!("{name:16} recall {tp}/{nt} = {:.3}  precision {precision:.3}  false confirmations {fp}/{nf}", *tp as f64 / (*nt).max(1) as f64);
     }
-    println!("mean verify time {:.2} ms over {verify_count} verifications", verify_time.as_secs_f64() * 1e3 / verify_count.max(1) as f64);
+    println!(
+        "mean verify time {:.2} ms over {verify_count} verifications",
+        verify_time.as_secs_f64() * 1e3 / verify_count.max(1) as f64
+    );
 }

@@ -33,7 +33,12 @@ enum Hit {
 }
 
 /// Nearest panel hit along `o + t d` with `t < t_max`, by grid traversal.
-fn cast_panels(world: &World, o: &Vector3<f64>, d: &Vector3<f64>, t_max: f64) -> Option<(f64, usize, f64)> {
+fn cast_panels(
+    world: &World,
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    t_max: f64,
+) -> Option<(f64, usize, f64)> {
     let g = &world.panel_grid;
     let o2 = Vector2::new(o.x, o.z);
     let d2 = Vector2::new(d.x, d.z);
@@ -43,11 +48,28 @@ fn cast_panels(world: &World, o: &Vector3<f64>, d: &Vector3<f64>, t_max: f64) ->
     let (mut i, mut j) = g.cell_of(&o2);
     let step_i: i64 = if d2.x > 0.0 { 1 } else { -1 };
     let step_j: i64 = if d2.y > 0.0 { 1 } else { -1 };
-    let boundary = |c: i64, step: i64, origin: f64| origin + (c + i64::from(step > 0)) as f64 * g.cell;
-    let mut t_next_x = if d2.x != 0.0 { (boundary(i, step_i, g.origin.x) - o2.x) / d2.x } else { f64::INFINITY };
-    let mut t_next_z = if d2.y != 0.0 { (boundary(j, step_j, g.origin.y) - o2.y) / d2.y } else { f64::INFINITY };
-    let dt_x = if d2.x != 0.0 { g.cell / d2.x.abs() } else { f64::INFINITY };
-    let dt_z = if d2.y != 0.0 { g.cell / d2.y.abs() } else { f64::INFINITY };
+    let boundary =
+        |c: i64, step: i64, origin: f64| origin + (c + i64::from(step > 0)) as f64 * g.cell;
+    let mut t_next_x = if d2.x != 0.0 {
+        (boundary(i, step_i, g.origin.x) - o2.x) / d2.x
+    } else {
+        f64::INFINITY
+    };
+    let mut t_next_z = if d2.y != 0.0 {
+        (boundary(j, step_j, g.origin.y) - o2.y) / d2.y
+    } else {
+        f64::INFINITY
+    };
+    let dt_x = if d2.x != 0.0 {
+        g.cell / d2.x.abs()
+    } else {
+        f64::INFINITY
+    };
+    let dt_z = if d2.y != 0.0 {
+        g.cell / d2.y.abs()
+    } else {
+        f64::INFINITY
+    };
     let mut best: Option<(f64, usize, f64)> = None;
     loop {
         for &k in g.items(i, j) {
@@ -60,7 +82,11 @@ fn cast_panels(world: &World, o: &Vector3<f64>, d: &Vector3<f64>, t_max: f64) ->
             let w = p.a - o2;
             let t = (w.x * e.y - w.y * e.x) / denom;
             let u = (w.x * d2.y - w.y * d2.x) / denom;
-            if t <= 1e-6 || !(0.0..=1.0).contains(&u) || t >= t_max || best.is_some_and(|b| t >= b.0) {
+            if t <= 1e-6
+                || !(0.0..=1.0).contains(&u)
+                || t >= t_max
+                || best.is_some_and(|b| t >= b.0)
+            {
                 continue;
             }
             let y = o.y + t * d.y;
@@ -86,7 +112,13 @@ fn cast_panels(world: &World, o: &Vector3<f64>, d: &Vector3<f64>, t_max: f64) ->
 /// Renders the grey image seen by `camera` at pose `world_T_cam` (maps camera
 /// points into the world; see [`on_road`] for trajectory poses). Pixels with
 /// no ray in the model are black.
-pub fn render(world: &World, camera: &CameraModel, world_T_cam: Isometry3<f64>, width: u32, height: u32) -> Vec<u8> {
+pub fn render(
+    world: &World,
+    camera: &CameraModel,
+    world_T_cam: Isometry3<f64>,
+    width: u32,
+    height: u32,
+) -> Vec<u8> {
     let mut image = vec![0u8; width as usize * height as usize];
     let centre = Vector2::new(0.5 * (width as f64 - 1.0), 0.5 * (height as f64 - 1.0));
     let pixel_angle = camera.pixel_angle(&centre).unwrap_or(1e-3);
@@ -95,9 +127,15 @@ pub fn render(world: &World, camera: &CameraModel, world_T_cam: Isometry3<f64>, 
     let seed = world.params.seed;
     for v in 0..height {
         for u in 0..width {
-            let Some(bearing) = camera.unproject(&Vector2::new(u as f64, v as f64)) else { continue };
+            let Some(bearing) = camera.unproject(&Vector2::new(u as f64, v as f64)) else {
+                continue;
+            };
             let d = world_T_cam.rotation * bearing.into_inner();
-            let t_ground = if d.y > 1e-9 { (ground_y - o.y) / d.y } else { f64::INFINITY };
+            let t_ground = if d.y > 1e-9 {
+                (ground_y - o.y) / d.y
+            } else {
+                f64::INFINITY
+            };
             let t_max = t_ground.min(MAX_DISTANCE);
             let hit = match cast_panels(world, &o, &d, t_max) {
                 Some((t, index, u)) => Hit::Panel { t, index, u },

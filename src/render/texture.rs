@@ -107,8 +107,10 @@ impl Facade {
             let w = 0.6 + 1.0 * unit(mix(hp ^ 2));
             let y0 = 0.4 + 0.6 * unit(mix(hp ^ 3));
             let hgt = 0.5 + 1.0 * unit(mix(hp ^ 4));
-            let cover_x = ((s - x0 + 0.5 * fw).min(w) - (s - x0 - 0.5 * fw).max(0.0)).max(0.0) / fw.max(1e-6);
-            let cover_y = ((h - y0 + 0.5 * fw).min(hgt) - (h - y0 - 0.5 * fw).max(0.0)).max(0.0) / fw.max(1e-6);
+            let cover_x =
+                ((s - x0 + 0.5 * fw).min(w) - (s - x0 - 0.5 * fw).max(0.0)).max(0.0) / fw.max(1e-6);
+            let cover_y = ((h - y0 + 0.5 * fw).min(hgt) - (h - y0 - 0.5 * fw).max(0.0)).max(0.0)
+                / fw.max(1e-6);
             let cover = if fw < 1e-6 {
                 f64::from(s >= x0 && s < x0 + w && h >= y0 && h < y0 + hgt)
             } else {
@@ -123,7 +125,11 @@ impl Facade {
             let cover = filtered_pulse(u, self.window_lo, self.window_hi, fw / self.bay)
                 * filtered_pulse(v, self.sill_lo, self.sill_hi, fw / self.floor);
             let pane = unit(hash2(self.seed ^ 4, u.floor() as i64, v.floor() as i64));
-            let glass = if pane < 0.15 { 0.85 + 0.1 * pane } else { 0.05 + 0.35 * pane };
+            let glass = if pane < 0.15 {
+                0.85 + 0.1 * pane
+            } else {
+                0.05 + 0.35 * pane
+            };
             // Distant windows average with their neighbours.
             let mean_glass = 0.27;
             let far = (fw / self.bay).clamp(0.0, 1.0);
@@ -169,9 +175,17 @@ mod tests {
     #[test]
     fn same_place_same_shade_different_places_differ() {
         let f = Facade::new(42);
-        assert_eq!(f.shade(3.3, 7.1, 0.01), Facade::new(42).shade(3.3, 7.1, 0.01));
+        assert_eq!(
+            f.shade(3.3, 7.1, 0.01),
+            Facade::new(42).shade(3.3, 7.1, 0.01)
+        );
         let g = Facade::new(43);
-        let differ = (0..100).filter(|k| (f.shade(*k as f64 * 0.37, 5.0, 0.01) - g.shade(*k as f64 * 0.37, 5.0, 0.01)).abs() > 0.05).count();
+        let differ = (0..100)
+            .filter(|k| {
+                (f.shade(*k as f64 * 0.37, 5.0, 0.01) - g.shade(*k as f64 * 0.37, 5.0, 0.01)).abs()
+                    > 0.05
+            })
+            .count();
         assert!(differ > 50, "{differ}");
     }
 }

@@ -89,12 +89,20 @@ impl Grid {
     fn new(min: Vector2<f64>, max: Vector2<f64>, cell: f64) -> Self {
         let nx = (((max.x - min.x) / cell).ceil() as usize).max(1);
         let nz = (((max.y - min.y) / cell).ceil() as usize).max(1);
-        Grid { origin: min, cell, dims: (nx, nz), cells: vec![Vec::new(); nx * nz] }
+        Grid {
+            origin: min,
+            cell,
+            dims: (nx, nz),
+            cells: vec![Vec::new(); nx * nz],
+        }
     }
 
     /// Cell coordinates of a point (may be outside the grid).
     pub fn cell_of(&self, p: &Vector2<f64>) -> (i64, i64) {
-        (((p.x - self.origin.x) / self.cell).floor() as i64, ((p.y - self.origin.y) / self.cell).floor() as i64)
+        (
+            ((p.x - self.origin.x) / self.cell).floor() as i64,
+            ((p.y - self.origin.y) / self.cell).floor() as i64,
+        )
     }
 
     /// Items of cell `(i, j)`, empty outside the grid.
@@ -136,7 +144,9 @@ fn xz(p: &Vector3<f64>) -> Vector2<f64> {
 /// Resamples a polyline every `step` metres of arc length (x-z distance).
 fn resample(positions: &[Vector3<f64>], step: f64) -> Vec<Vector3<f64>> {
     let mut out = Vec::new();
-    let Some(first) = positions.first() else { return out };
+    let Some(first) = positions.first() else {
+        return out;
+    };
     out.push(*first);
     // Arc length still to go before the next sample.
     let mut to_next = step;
@@ -154,9 +164,15 @@ fn resample(positions: &[Vector3<f64>], step: f64) -> Vec<Vector3<f64>> {
 
 impl World {
     /// Builds the street world along `positions` (camera centres, KITTI frame).
-    pub fn from_positions(positions: &[Vector3<f64>], params: WorldParams) -> Result<World, String> {
+    pub fn from_positions(
+        positions: &[Vector3<f64>],
+        params: WorldParams,
+    ) -> Result<World, String> {
         if positions.len() < 2 {
-            return Err(format!("a world needs at least 2 positions, got {}", positions.len()));
+            return Err(format!(
+                "a world needs at least 2 positions, got {}",
+                positions.len()
+            ));
         }
         if positions.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
             return Err("non-finite position in trajectory".into());
@@ -171,13 +187,20 @@ impl World {
         let (lo, hi) = (lo - Vector2::repeat(margin), hi + Vector2::repeat(margin));
         let mut road_grid = Grid::new(lo, hi, params.keep_out.max(params.revisit_radius));
         // Road samples within `radius` of `p`, excluding those of the current stretch.
-        let near = |grid: &Grid, road: &[Vector3<f64>], p: &Vector2<f64>, radius: f64, skip: std::ops::Range<usize>| -> bool {
+        let near = |grid: &Grid,
+                    road: &[Vector3<f64>],
+                    p: &Vector2<f64>,
+                    radius: f64,
+                    skip: std::ops::Range<usize>|
+         -> bool {
             let (ci, cj) = grid.cell_of(p);
             let reach = (radius / grid.cell).ceil() as i64;
             for j in cj - reach..=cj + reach {
                 for i in ci - reach..=ci + reach {
                     for &k in grid.items(i, j) {
-                        if !skip.contains(&(k as usize)) && (xz(&road[k as usize]) - p).norm() < radius {
+                        if !skip.contains(&(k as usize))
+                            && (xz(&road[k as usize]) - p).norm() < radius
+                        {
                             return true;
                         }
                     }
@@ -208,15 +231,23 @@ impl World {
                 let b = q + right * (side * params.facade_offset);
                 let building = (k / params.panels_per_building.max(1)) as i64;
                 // The style hashes the building's world cell, so it belongs to the place.
-                let anchor = xz(&road[(building as usize * params.panels_per_building).min(road.len() - 1)]);
+                let anchor =
+                    xz(&road[(building as usize * params.panels_per_building).min(road.len() - 1)]);
                 let cell = (anchor + right * (side * params.facade_offset)) / 2.0;
-                let style = hash2(params.seed ^ mix(side_index as u64 + 1), cell.x.floor() as i64, cell.y.floor() as i64);
+                let style = hash2(
+                    params.seed ^ mix(side_index as u64 + 1),
+                    cell.x.floor() as i64,
+                    cell.y.floor() as i64,
+                );
                 s_along[side_index] += (b - a).norm();
                 if unit(mix(style ^ 0x9A9)) < params.gap_probability {
                     continue;
                 }
                 let mid = (a + b) * 0.5;
-                if [a, mid, b].iter().any(|pt| near(&road_grid, &road, pt, params.keep_out, 0..0)) {
+                if [a, mid, b]
+                    .iter()
+                    .any(|pt| near(&road_grid, &road, pt, params.keep_out, 0..0))
+                {
                     continue;
                 }
                 let normal = Vector2::new(-(b - a).y, (b - a).x).normalize();
@@ -236,7 +267,12 @@ impl World {
         for (i, panel) in panels.iter().enumerate() {
             panel_grid.insert_box(panel.a.inf(&panel.b), panel.a.sup(&panel.b), i as u32);
         }
-        Ok(World { params, panels, panel_grid, road })
+        Ok(World {
+            params,
+            panels,
+            panel_grid,
+            road,
+        })
     }
 
     /// y of the (flat) ground.
@@ -259,9 +295,14 @@ mod tests {
 
     #[test]
     fn resample_spaces_points_by_arc_length() {
-        let pts = [Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 10.0), Vector3::new(10.0, 0.0, 10.0)];
+        let pts = [
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(0.0, 0.0, 10.0),
+            Vector3::new(10.0, 0.0, 10.0),
+        ];
         let r = resample(&pts, 4.0);
-        assert_eq!(r.len(), 5);
+        // Samples at 0, 4, 8, 12, 16 and 20 m of arc length.
+        assert_eq!(r.len(), 6);
         for w in r.windows(2) {
             let d = (xz(&w[1]) - xz(&w[0])).norm();
             assert!(d <= 4.0 + 1e-9 && d > 2.0, "{d}");
@@ -271,11 +312,18 @@ mod tests {
     #[test]
     fn a_revisited_street_is_built_once() {
         // Drive 200 m along z, then come back 1 m to the side.
-        let mut pts: Vec<_> = (0..=100).map(|i| Vector3::new(0.0, 0.0, 2.0 * i as f64)).collect();
+        let mut pts: Vec<_> = (0..=100)
+            .map(|i| Vector3::new(0.0, 0.0, 2.0 * i as f64))
+            .collect();
         pts.extend((0..=100).map(|i| Vector3::new(1.0, 0.0, 200.0 - 2.0 * i as f64)));
         let world = World::from_positions(&pts, WorldParams::default()).unwrap();
         let once = World::from_positions(&pts[..=100], WorldParams::default()).unwrap();
-        assert!(world.panels.len() <= once.panels.len() + 6, "{} vs {}", world.panels.len(), once.panels.len());
+        assert!(
+            world.panels.len() <= once.panels.len() + 6,
+            "{} vs {}",
+            world.panels.len(),
+            once.panels.len()
+        );
         assert!(world.panels.len() > 60);
     }
 }

@@ -141,7 +141,11 @@ impl CameraModel {
                 p1: p[7],
                 p2: p[8],
             },
-            other => return Err(format!("unknown camera kind {other} (0 pinhole, 1 fisheye, 2 omni)")),
+            other => {
+                return Err(format!(
+                    "unknown camera kind {other} (0 pinhole, 1 fisheye, 2 omni)"
+                ))
+            }
         };
         model.validate()?;
         Ok(model)
@@ -151,7 +155,16 @@ impl CameraModel {
     pub fn to_params(&self) -> (u32, [f64; 12]) {
         let mut p = [0.0; 12];
         match *self {
-            CameraModel::Pinhole { fx, fy, cx, cy, k1, k2, p1, p2 } => {
+            CameraModel::Pinhole {
+                fx,
+                fy,
+                cx,
+                cy,
+                k1,
+                k2,
+                p1,
+                p2,
+            } => {
                 p[..8].copy_from_slice(&[fx, fy, cx, cy, k1, k2, p1, p2]);
                 (0, p)
             }
@@ -159,7 +172,17 @@ impl CameraModel {
                 p[..8].copy_from_slice(&[fx, fy, cx, cy, k[0], k[1], k[2], k[3]]);
                 (1, p)
             }
-            CameraModel::Omni { xi, fx, fy, cx, cy, k1, k2, p1, p2 } => {
+            CameraModel::Omni {
+                xi,
+                fx,
+                fy,
+                cx,
+                cy,
+                k1,
+                k2,
+                p1,
+                p2,
+            } => {
                 p[..9].copy_from_slice(&[xi, fx, fy, cx, cy, k1, k2, p1, p2]);
                 (2, p)
             }
@@ -182,7 +205,9 @@ impl CameraModel {
             }
         };
         if fx <= 0.0 || fy <= 0.0 {
-            return Err(format!("camera kind {kind}: focal lengths must be positive (fx {fx}, fy {fy})"));
+            return Err(format!(
+                "camera kind {kind}: focal lengths must be positive (fx {fx}, fy {fy})"
+            ));
         }
         Ok(())
     }
@@ -246,7 +271,16 @@ impl CameraModel {
     /// The pixel may lie outside the image; check with [`CameraModel::in_image`].
     pub fn project(&self, bearing: &Vector3<f64>) -> Option<Vector2<f64>> {
         match *self {
-            CameraModel::Pinhole { fx, fy, cx, cy, k1, k2, p1, p2 } => {
+            CameraModel::Pinhole {
+                fx,
+                fy,
+                cx,
+                cy,
+                k1,
+                k2,
+                p1,
+                p2,
+            } => {
                 if bearing.z <= 0.0 {
                     return None;
                 }
@@ -262,10 +296,24 @@ impl CameraModel {
                     // Past the polynomial's turning point the model folds back.
                     return None;
                 }
-                let (dx, dy) = if r > 0.0 { (bearing.x / r, bearing.y / r) } else { (0.0, 0.0) };
+                let (dx, dy) = if r > 0.0 {
+                    (bearing.x / r, bearing.y / r)
+                } else {
+                    (0.0, 0.0)
+                };
                 Some(Vector2::new(fx * theta_d * dx + cx, fy * theta_d * dy + cy))
             }
-            CameraModel::Omni { xi, fx, fy, cx, cy, k1, k2, p1, p2 } => {
+            CameraModel::Omni {
+                xi,
+                fx,
+                fy,
+                cx,
+                cy,
+                k1,
+                k2,
+                p1,
+                p2,
+            } => {
                 let n = bearing.norm();
                 if n == 0.0 {
                     return None;
@@ -286,7 +334,16 @@ impl CameraModel {
     /// (distortion not invertible, beyond the fisheye polynomial's range).
     pub fn unproject(&self, pixel: &Vector2<f64>) -> Option<Unit<Vector3<f64>>> {
         match *self {
-            CameraModel::Pinhole { fx, fy, cx, cy, k1, k2, p1, p2 } => {
+            CameraModel::Pinhole {
+                fx,
+                fy,
+                cx,
+                cy,
+                k1,
+                k2,
+                p1,
+                p2,
+            } => {
                 let md = Vector2::new((pixel.x - cx) / fx, (pixel.y - cy) / fy);
                 let m = undistort_rt(md, k1, k2, p1, p2)?;
                 Some(Unit::new_normalize(Vector3::new(m.x, m.y, 1.0)))
@@ -313,13 +370,30 @@ impl CameraModel {
                     }
                 }
                 let (value, slope) = fisheye_theta_d(theta, &k);
-                if !(converged || (value - theta_d).abs() < 1e-10) || slope <= 0.0 || theta > std::f64::consts::PI {
+                if !(converged || (value - theta_d).abs() < 1e-10)
+                    || slope <= 0.0
+                    || theta > std::f64::consts::PI
+                {
                     return None;
                 }
                 let (sin, cos) = theta.sin_cos();
-                Some(Unit::new_normalize(Vector3::new(sin * md.x / theta_d, sin * md.y / theta_d, cos)))
+                Some(Unit::new_normalize(Vector3::new(
+                    sin * md.x / theta_d,
+                    sin * md.y / theta_d,
+                    cos,
+                )))
             }
-            CameraModel::Omni { xi, fx, fy, cx, cy, k1, k2, p1, p2 } => {
+            CameraModel::Omni {
+                xi,
+                fx,
+                fy,
+                cx,
+                cy,
+                k1,
+                k2,
+                p1,
+                p2,
+            } => {
                 let md = Vector2::new((pixel.x - cx) / fx, (pixel.y - cy) / fy);
                 let m = undistort_rt(md, k1, k2, p1, p2)?;
                 // Lift onto the unit sphere: s = λ (m_x, m_y, 1) - (0, 0, ξ) with
@@ -330,14 +404,21 @@ impl CameraModel {
                     return None;
                 }
                 let lambda = (xi + disc.sqrt()) / (1.0 + r2);
-                Some(Unit::new_normalize(Vector3::new(lambda * m.x, lambda * m.y, lambda - xi)))
+                Some(Unit::new_normalize(Vector3::new(
+                    lambda * m.x,
+                    lambda * m.y,
+                    lambda - xi,
+                )))
             }
         }
     }
 
     /// True when `pixel` lies inside a `width` x `height` image.
     pub fn in_image(pixel: &Vector2<f64>, width: u32, height: u32) -> bool {
-        pixel.x >= -0.5 && pixel.y >= -0.5 && pixel.x < width as f64 - 0.5 && pixel.y < height as f64 - 0.5
+        pixel.x >= -0.5
+            && pixel.y >= -0.5
+            && pixel.x < width as f64 - 0.5
+            && pixel.y < height as f64 - 0.5
     }
 
     /// Angle (radians) subtended by one pixel at `pixel`, the unit in which the

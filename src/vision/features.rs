@@ -26,11 +26,24 @@ pub struct OrbParams {
     pub levels: i32,
     /// FAST threshold (grey levels); low so that soft textures still give corners.
     pub fast_threshold: i32,
+    /// Cameras coarser than this at the image centre (pixels per radian) are
+    /// upsampled into extra pyramid levels, so that a wide-angle keyframe also
+    /// has features at the angular scales of a narrow camera's fine levels.
+    pub min_pixels_per_radian: f64,
+    /// Most levels added by upsampling.
+    pub max_upsampled_levels: i32,
 }
 
 impl Default for OrbParams {
     fn default() -> Self {
-        OrbParams { max_features: 1000, scale_factor: 1.2, levels: 8, fast_threshold: 12 }
+        OrbParams {
+            max_features: 1000,
+            scale_factor: 1.2,
+            levels: 8,
+            fast_threshold: 12,
+            min_pixels_per_radian: 300.0,
+            max_upsampled_levels: 4,
+        }
     }
 }
 
@@ -58,8 +71,9 @@ pub struct KeyframeFeatures {
     pub descriptors: Vec<u8>,
     /// Unit bearing of each keypoint in the camera frame.
     pub bearings: Vec<Vector3<f64>>,
-    /// Angular size (radians) of one pixel at the keypoint's pyramid level:
-    /// the unit of geometric error for that keypoint.
+    /// Angular size (radians) of one pixel at the keypoint's pyramid level
+    /// (below one source pixel on upsampled levels): the unit of geometric
+    /// error for that keypoint.
     pub sigmas: Vec<f64>,
 }
 
@@ -85,8 +99,12 @@ impl KeyframeFeatures {
 
     /// The descriptors as an OpenCV matrix (one row per keypoint, no copy).
     pub fn descriptor_mat(&self) -> Result<opencv::boxed_ref::BoxedRef<'_, Mat>, String> {
-        Mat::new_rows_cols_with_data(self.len() as i32, DESCRIPTOR_BYTES as i32, &self.descriptors)
-            .map_err(|e| format!("descriptor matrix: {e}"))
+        Mat::new_rows_cols_with_data(
+            self.len() as i32,
+            DESCRIPTOR_BYTES as i32,
+            &self.descriptors,
+        )
+        .map_err(|e| format!("descriptor matrix: {e}"))
     }
 }
 
@@ -106,25 +124,63 @@ pub struct GrayImage<'a> {
 /// Turns grey images into [`KeyframeFeatures`] with OpenCV's ORB.
 pub struct FeatureExtractor {
     params: OrbParams,
-    orb: Ptr<ORB>,
+    /// ORB detectors by number of upsampled levels.
+    orbs: Vec<Option<Ptr<ORB>>>,
 }
 
 impl FeatureExtractor {
-    /// Creates the ORB detector.
+    /// Creates the extractor (detectors are made on first use).
     pub fn new(params: OrbParams) -> Result<Self, String> {
-        let orb = ORB::create(
-            params.max_features,
-            params.scale_factor,
-            params.levels,
-            31,
-            0,
-            2,
-            ORB_ScoreType::HARRIS_SCORE,
-            31,
-            params.fast_threshold,
-        )
-        .map_err(|e| format!("ORB::create: {e}"))?;
-        Ok(FeatureExtractor { params, orb })
+        if params.max_features < 1 || params.levels < 1 || params.scale_factor <= 1.0 {
+            return Err(format!("bad ORB settings {params:?}"));
+        }
+        let mut extractor = FeatureExtractor {
+            params,
+            orbs: (0..=params.max_upsampled_levels.max(0))
+                .map(|_| None)
+                .collect(),
+        };
+        extractor.orb(0)?;
+        Ok(extractor)
+    }
+
+    /// The detector whose pyramid starts `upsampled` levels above the image.
+    fn orb(&mut self, upsampled: i32) -> Result<&mut Ptr<ORB>, String> {
+        let p = self.params;
+        let slot = &mut self.orbs[upsampled as usize];
+        if slot.is_none() {
+            // The upsampled levels get their share of features on top of the usual budget.
+            let features =
+                (p.max_features as f64 * (p.scale_factor as f64).powi(upsampled)).round() as i32;
+            let orb = ORB::create(
+                features,
+                p.scale_factor,
+                p.levels + upsampled,
+                31,
+                upsampled,
+                2,
+                ORB_ScoreType::HARRIS_SCORE,
+                31,
+                p.fast_threshold,
+            )
+            .map_err(|e| format!("ORB::create: {e}"))?;
+            *slot = Some(orb);
+        }
+        Ok(slot.as_mut().expect("created above"))
+    }
+
+    /// Levels to upsample for `camera`: enough to reach `min_pixels_per_radian` at the centre.
+    fn upsampled_levels(&self, camera: &CameraModel, width: usize, height: usize) -> i32 {
+        let centre = Vector2::new(0.5 * (width as f64 - 1.0), 0.5 * (height as f64 - 1.0));
+        let Some(angle) = camera.pixel_angle(&centre) else {
+            return 0;
+        };
+        let ratio = self.params.min_pixels_per_radian * angle;
+        if ratio <= 1.0 {
+            return 0;
+        }
+        ((ratio.ln() / (self.params.scale_factor as f64).ln()).ceil() as i32)
+            .clamp(0, self.params.max_upsampled_levels.max(0))
     }
 
     /// Settings in use.
@@ -134,31 +190,57 @@ impl FeatureExtractor {
 
     /// Detects ORB features in `image` and lifts them to bearings with `camera`.
     /// Keypoints whose pixel has no ray in the model are dropped.
-    pub fn extract(&mut self, id: u64, camera: CameraModel, image: GrayImage<'_>) -> Result<KeyframeFeatures, String> {
-        let (w, h, stride) = (image.width as usize, image.height as usize, image.stride as usize);
+    pub fn extract(
+        &mut self,
+        id: u64,
+        camera: CameraModel,
+        image: GrayImage<'_>,
+    ) -> Result<KeyframeFeatures, String> {
+        let (w, h, stride) = (
+            image.width as usize,
+            image.height as usize,
+            image.stride as usize,
+        );
         if w == 0 || h == 0 {
             return Err(format!("keyframe {id}: empty image {w}x{h}"));
         }
         if stride < w {
-            return Err(format!("keyframe {id}: stride {stride} smaller than width {w}"));
+            return Err(format!(
+                "keyframe {id}: stride {stride} smaller than width {w}"
+            ));
         }
         let needed = stride * (h - 1) + w;
         if image.data.len() < needed {
-            return Err(format!("keyframe {id}: {} bytes for a {w}x{h} image with stride {stride} (need {needed})", image.data.len()));
+            return Err(format!(
+                "keyframe {id}: {} bytes for a {w}x{h} image with stride {stride} (need {needed})",
+                image.data.len()
+            ));
         }
-        camera.validate().map_err(|e| format!("keyframe {id}: {e}"))?;
+        camera
+            .validate()
+            .map_err(|e| format!("keyframe {id}: {e}"))?;
         let packed;
         let pixels: &[u8] = if stride == w {
             &image.data[..w * h]
         } else {
-            packed = (0..h).flat_map(|r| image.data[r * stride..r * stride + w].iter().copied()).collect::<Vec<u8>>();
+            packed = (0..h)
+                .flat_map(|r| image.data[r * stride..r * stride + w].iter().copied())
+                .collect::<Vec<u8>>();
             &packed
         };
-        let mat = Mat::new_rows_cols_with_data(h as i32, w as i32, pixels).map_err(|e| format!("keyframe {id}: image matrix: {e}"))?;
+        let mat = Mat::new_rows_cols_with_data(h as i32, w as i32, pixels)
+            .map_err(|e| format!("keyframe {id}: image matrix: {e}"))?;
         let mut keypoints: Vector<KeyPoint> = Vector::new();
         let mut descriptors = Mat::default();
-        self.orb
-            .detect_and_compute(&mat, &opencv::core::no_array(), &mut keypoints, &mut descriptors, false)
+        let upsampled = self.upsampled_levels(&camera, w, h);
+        self.orb(upsampled)?
+            .detect_and_compute(
+                &mat,
+                &opencv::core::no_array(),
+                &mut keypoints,
+                &mut descriptors,
+                false,
+            )
             .map_err(|e| format!("keyframe {id}: ORB: {e}"))?;
         let mut out = KeyframeFeatures {
             id,
@@ -171,16 +253,26 @@ impl FeatureExtractor {
         if keypoints.is_empty() {
             return Ok(out);
         }
-        let bytes = descriptors.data_bytes().map_err(|e| format!("keyframe {id}: descriptors: {e}"))?;
+        let bytes = descriptors
+            .data_bytes()
+            .map_err(|e| format!("keyframe {id}: descriptors: {e}"))?;
         for (i, kp) in keypoints.iter().enumerate() {
             let pt = kp.pt();
             let pixel = Vector2::new(pt.x as f64, pt.y as f64);
-            let (Some(bearing), Some(angle)) = (camera.unproject(&pixel), camera.pixel_angle(&pixel)) else {
+            let (Some(bearing), Some(angle)) =
+                (camera.unproject(&pixel), camera.pixel_angle(&pixel))
+            else {
                 continue;
             };
-            let level_scale = (self.params.scale_factor as f64).powi(kp.octave());
-            out.keypoints.push(Keypoint { pixel: Vector2::new(pt.x, pt.y), octave: kp.octave(), angle: kp.angle() });
-            out.descriptors.extend_from_slice(&bytes[i * DESCRIPTOR_BYTES..(i + 1) * DESCRIPTOR_BYTES]);
+            // Keypoints are in source pixels; level `upsampled` is the source resolution.
+            let level_scale = (self.params.scale_factor as f64).powi(kp.octave() - upsampled);
+            out.keypoints.push(Keypoint {
+                pixel: Vector2::new(pt.x, pt.y),
+                octave: kp.octave(),
+                angle: kp.angle(),
+            });
+            out.descriptors
+                .extend_from_slice(&bytes[i * DESCRIPTOR_BYTES..(i + 1) * DESCRIPTOR_BYTES]);
             out.bearings.push(bearing.into_inner());
             out.sigmas.push(angle * level_scale);
         }

@@ -11,7 +11,11 @@ pub mod features;
 #[cfg(feature = "verifier")]
 mod frame_verifier;
 #[cfg(feature = "verifier")]
+pub mod homography;
+#[cfg(feature = "verifier")]
 pub mod matching;
+#[cfg(feature = "verifier")]
+pub mod refine;
 #[cfg(feature = "verifier")]
 pub mod relative_pose;
 #[cfg(feature = "verifier")]

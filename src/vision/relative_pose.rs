@@ -26,16 +26,21 @@
 //! must stay below `max_rotation_std` radians, so degenerate configurations
 //! (planar scenes, where a family of essential matrices fits) are rejected;
 //! and most inliers with measurable parallax must lie in front of both
-//! cameras. A translation direction less certain than `max_translation_std`
+//! cameras; and a homography may not take more than `max_homography_share`
+//! of the model-selection score (ORB-SLAM's test: a planar scene leaves a
+//! twofold pose ambiguity that the covariance does not reveal). A translation direction less certain than `max_translation_std`
 //! is not reported (rotation only).
 
 #![allow(non_snake_case)]
 
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, SymmetricEigen, Vector3};
 
+use super::homography::{homography_share, ransac_homography};
+pub use super::refine::{epipolar_rms, refine_pose, sampson_error};
+
 /// RANSAC always draws at least this many samples: adaptive stopping alone
 /// ends too early when a near-degenerate sample (all far points) fits many.
-const MIN_ITERATIONS: usize = 50;
+pub(super) const MIN_ITERATIONS: usize = 50;
 
 /// One matched pair of bearings with their angular noise (radians).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -68,6 +73,9 @@ pub struct PoseParams {
     /// Largest standard deviation (radians) of the translation direction for
     /// it to be reported; beyond it the pose is reported as rotation only.
     pub max_translation_std: f64,
+    /// Rejected as planar (ambiguous pose) when a homography takes more than
+    /// this share of the model-selection score (ORB-SLAM uses 0.45).
+    pub max_homography_share: f64,
     /// Smallest fraction of inliers with parallax that triangulate in front of both cameras.
     pub min_cheirality: f64,
     /// The rotation-only model is chosen when its inliers reach this fraction
@@ -85,6 +93,7 @@ impl Default for PoseParams {
             min_inlier_ratio: 0.25,
             max_rotation_std: 5f64.to_radians(),
             max_translation_std: 10f64.to_radians(),
+            max_homography_share: 0.55,
             min_cheirality: 0.8,
             rotation_only_fraction: 0.9,
         }
@@ -127,10 +136,10 @@ pub enum PoseOutcome {
 }
 
 /// SplitMix64: a tiny deterministic generator so verdicts are reproducible.
-struct SplitMix(u64);
+pub(super) struct SplitMix(pub(super) u64);
 
 impl SplitMix {
-    fn next(&mut self) -> u64 {
+    pub(super) fn next(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -139,7 +148,7 @@ impl SplitMix {
     }
 
     /// `k` distinct indices below `n` (k << n).
-    fn sample(&mut self, n: usize, k: usize, out: &mut Vec<usize>) {
+    pub(super) fn sample(&mut self, n: usize, k: usize, out: &mut Vec<usize>) {
         out.clear();
         while out.len() < k {
             let i = (self.next() % n as u64) as usize;
@@ -179,20 +188,14 @@ fn eight_point(corr: &[Correspondence], idx: &[usize]) -> Option<Matrix3<f64>> {
     E.iter().all(|v| v.is_finite()).then_some(E)
 }
 
-/// Spherical Sampson error (radians): `fᵦᵀ E fₐ` over the norm of its
-/// gradient in the tangent planes of both bearings, the first-order angular
-/// distance of the pair to the epipolar constraint.
-fn sampson_error(E: &Matrix3<f64>, c: &Correspondence) -> f64 {
-    let line_b = E * c.a;
-    let line_a = E.transpose() * c.b;
-    let grad_b = line_b - c.b * c.b.dot(&line_b);
-    let grad_a = line_a - c.a * c.a.dot(&line_a);
-    c.b.dot(&line_b) / (grad_a.norm_squared() + grad_b.norm_squared()).sqrt().max(1e-300)
-}
-
 /// Collects the inliers of `E` and returns the MSAC cost (squared normalised
 /// error, truncated at `k²`), which prefers tight fits among equal counts.
-fn essential_inliers(E: &Matrix3<f64>, corr: &[Correspondence], k: f64, out: &mut Vec<usize>) -> f64 {
+fn essential_inliers(
+    E: &Matrix3<f64>,
+    corr: &[Correspondence],
+    k: f64,
+    out: &mut Vec<usize>,
+) -> f64 {
     out.clear();
     let mut cost = 0.0;
     for (i, c) in corr.iter().enumerate() {
@@ -221,7 +224,12 @@ fn kabsch(corr: &[Correspondence], idx: &[usize]) -> Option<Rotation3<f64>> {
 }
 
 /// Collects the inliers of a pure rotation and returns its MSAC cost.
-fn rotation_inliers(R: &Rotation3<f64>, corr: &[Correspondence], k: f64, out: &mut Vec<usize>) -> f64 {
+fn rotation_inliers(
+    R: &Rotation3<f64>,
+    corr: &[Correspondence],
+    k: f64,
+    out: &mut Vec<usize>,
+) -> f64 {
     out.clear();
     let mut cost = 0.0;
     for (i, c) in corr.iter().enumerate() {
@@ -237,7 +245,7 @@ fn rotation_inliers(R: &Rotation3<f64>, corr: &[Correspondence], k: f64, out: &m
 }
 
 /// Iterations needed to draw one all-inlier sample of size `s` with probability `p`.
-fn needed_iterations(inliers: usize, n: usize, s: i32, p: f64, cap: usize) -> usize {
+pub(super) fn needed_iterations(inliers: usize, n: usize, s: i32, p: f64, cap: usize) -> usize {
     let w = inliers as f64 / n as f64;
     let all = w.powi(s);
     if all <= 0.0 {
@@ -265,7 +273,12 @@ fn triangulate_depths(R: &Matrix3<f64>, t: &Vector3<f64>, c: &Correspondence) ->
 /// Fraction of the informative inliers (parallax above the noise, so that
 /// the sign of their depth is measured) that triangulate in front of both
 /// cameras; 1 when no inlier is informative.
-fn cheirality(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], inliers: &[usize]) -> f64 {
+fn cheirality(
+    R: &Rotation3<f64>,
+    t: &Vector3<f64>,
+    corr: &[Correspondence],
+    inliers: &[usize],
+) -> f64 {
     let (mut informative, mut front) = (0usize, 0usize);
     for &i in inliers {
         let c = &corr[i];
@@ -286,7 +299,11 @@ fn cheirality(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], inl
 }
 
 /// The decomposition of `E` whose inliers lie in front of both cameras, with that fraction.
-fn decompose(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize]) -> Option<(Rotation3<f64>, Vector3<f64>, f64)> {
+fn decompose(
+    E: &Matrix3<f64>,
+    corr: &[Correspondence],
+    inliers: &[usize],
+) -> Option<(Rotation3<f64>, Vector3<f64>, f64)> {
     let svd = E.svd(true, true);
     let (mut u, v_t) = (svd.u?, svd.v_t?);
     let mut v = v_t.transpose();
@@ -326,7 +343,12 @@ struct Refined {
 /// Local optimisation of one essential matrix: decompose (cheirality), then
 /// alternately refine on the inliers and re-select them, since the inlier set
 /// of a rough model holds a few wrong matches that pull the refinement off.
-fn local_optimise(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize], p: &PoseParams) -> Option<Refined> {
+fn local_optimise(
+    E: &Matrix3<f64>,
+    corr: &[Correspondence],
+    inliers: &[usize],
+    p: &PoseParams,
+) -> Option<Refined> {
     let (mut R, mut t, _) = decompose(E, corr, inliers)?;
     let mut current = inliers.to_vec();
     let mut selected = Vec::with_capacity(corr.len());
@@ -334,7 +356,12 @@ fn local_optimise(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize], 
     let mut information = SMatrix::<f64, 5, 5>::zeros();
     for _ in 0..3 {
         (R, t, information) = refine_pose(R, t, corr, &current);
-        cost = essential_inliers(&(t.cross_matrix() * R.matrix()), corr, p.threshold_sigmas, &mut selected);
+        cost = essential_inliers(
+            &(t.cross_matrix() * R.matrix()),
+            corr,
+            p.threshold_sigmas,
+            &mut selected,
+        );
         if selected == current || selected.len() < 8 {
             break;
         }
@@ -345,14 +372,24 @@ fn local_optimise(E: &Matrix3<f64>, corr: &[Correspondence], inliers: &[usize], 
     }
     // The Sampson error cannot tell the four decompositions of E apart: choose again by cheirality.
     let (R, t, _) = decompose(&(t.cross_matrix() * R.matrix()), corr, &current)?;
-    Some(Refined { R, t, inliers: current, cost, information })
+    Some(Refined {
+        R,
+        t,
+        inliers: current,
+        cost,
+        information,
+    })
 }
 
 /// LO-RANSAC for the essential matrix: MSAC over 8-point samples, then the
 /// last few best models are locally optimised and the lowest cost wins
 /// (the angular cost has local minima along the rotation-translation
 /// ambiguity of narrow fields of view, so one start is not enough).
-fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) -> Option<Refined> {
+fn ransac_essential(
+    corr: &[Correspondence],
+    p: &PoseParams,
+    rng: &mut SplitMix,
+) -> Option<Refined> {
     let n = corr.len();
     let mut best_cost = f64::INFINITY;
     let mut starts: Vec<(Matrix3<f64>, Vec<usize>)> = Vec::new();
@@ -362,7 +399,9 @@ fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix)
     while it < iterations {
         it += 1;
         rng.sample(n, 8, &mut sample);
-        let Some(E) = eight_point(corr, &sample) else { continue };
+        let Some(E) = eight_point(corr, &sample) else {
+            continue;
+        };
         let cost = essential_inliers(&E, corr, p.threshold_sigmas, &mut inl);
         if cost < best_cost {
             best_cost = cost;
@@ -370,7 +409,8 @@ fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix)
                 starts.remove(0);
             }
             starts.push((E, inl.clone()));
-            iterations = needed_iterations(inl.len(), n, 8, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
+            iterations = needed_iterations(inl.len(), n, 8, p.confidence, p.max_iterations)
+                .max(MIN_ITERATIONS);
         }
     }
     starts
@@ -381,7 +421,11 @@ fn ransac_essential(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix)
 }
 
 /// Two-point RANSAC for a pure rotation, refitted on its inliers.
-fn ransac_rotation(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) -> (Option<Rotation3<f64>>, Vec<usize>) {
+fn ransac_rotation(
+    corr: &[Correspondence],
+    p: &PoseParams,
+    rng: &mut SplitMix,
+) -> (Option<Rotation3<f64>>, Vec<usize>) {
     let n = corr.len();
     let (mut best_R, mut best, mut best_cost) = (None, Vec::new(), f64::INFINITY);
     let (mut sample, mut inl) = (Vec::with_capacity(2), Vec::with_capacity(n));
@@ -390,13 +434,16 @@ fn ransac_rotation(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) 
     while it < iterations {
         it += 1;
         rng.sample(n, 2, &mut sample);
-        let Some(R) = kabsch(corr, &sample) else { continue };
+        let Some(R) = kabsch(corr, &sample) else {
+            continue;
+        };
         let cost = rotation_inliers(&R, corr, p.threshold_sigmas, &mut inl);
         if cost < best_cost {
             best_cost = cost;
             std::mem::swap(&mut best, &mut inl);
             best_R = Some(R);
-            iterations = needed_iterations(best.len(), n, 2, p.confidence, p.max_iterations).max(MIN_ITERATIONS);
+            iterations = needed_iterations(best.len(), n, 2, p.confidence, p.max_iterations)
+                .max(MIN_ITERATIONS);
         }
     }
     for _ in 0..3 {
@@ -415,110 +462,15 @@ fn ransac_rotation(corr: &[Correspondence], p: &PoseParams, rng: &mut SplitMix) 
     (best_R, best)
 }
 
-/// Signed spherical Sampson residuals of the inliers in units of their noise.
-fn residuals(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], idx: &[usize], out: &mut Vec<f64>) {
-    out.clear();
-    let E = t.cross_matrix() * R.matrix();
-    out.extend(idx.iter().map(|&i| sampson_error(&E, &corr[i]) / corr[i].sigma));
-}
-
-/// Root mean square of the normalised angular epipolar errors of `idx` under `b_T_a = (R, t)`.
-pub fn epipolar_rms(R: &Rotation3<f64>, t: &Vector3<f64>, corr: &[Correspondence], idx: &[usize]) -> f64 {
-    let mut r = Vec::new();
-    residuals(R, &t.normalize(), corr, idx, &mut r);
-    (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt()
-}
-
-/// Applies a 5-dof update: rotation vector `δ[0..3]` on the left of `R`,
-/// tangent step `δ[3..5]` of the unit translation.
-fn perturb(R: &Rotation3<f64>, t: &Vector3<f64>, d: &SVector<f64, 5>) -> (Rotation3<f64>, Vector3<f64>) {
-    let e1 = t.cross(&if t.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
-    let e2 = t.cross(&e1);
-    let R = Rotation3::new(Vector3::new(d[0], d[1], d[2])) * R;
-    (R, (t + e1 * d[3] + e2 * d[4]).normalize())
-}
-
-/// `JᵀJ` and `Jᵀr` of the residuals at `(R, t)` (forward differences);
-/// with residuals in units of their noise `JᵀJ` is the pose information matrix.
-fn normal_equations(
-    R: &Rotation3<f64>,
-    t: &Vector3<f64>,
-    corr: &[Correspondence],
-    idx: &[usize],
-    r0: &[f64],
-    scratch: &mut Vec<f64>,
-) -> (SMatrix<f64, 5, 5>, SVector<f64, 5>) {
-    let h = 1e-7;
-    let mut columns = vec![Vec::new(); 5];
-    for (k, column) in columns.iter_mut().enumerate() {
-        let mut d = SVector::<f64, 5>::zeros();
-        d[k] = h;
-        let (Rp, tp) = perturb(R, t, &d);
-        residuals(&Rp, &tp, corr, idx, scratch);
-        *column = scratch.iter().zip(r0).map(|(p, q)| (p - q) / h).collect();
-    }
-    let mut jtj = SMatrix::<f64, 5, 5>::zeros();
-    let mut jtr = SVector::<f64, 5>::zeros();
-    for p in 0..5 {
-        jtr[p] = columns[p].iter().zip(r0).map(|(j, r)| j * r).sum();
-        for q in p..5 {
-            let v: f64 = columns[p].iter().zip(&columns[q]).map(|(x, y)| x * y).sum();
-            jtj[(p, q)] = v;
-            jtj[(q, p)] = v;
-        }
-    }
-    (jtj, jtr)
-}
-
-/// Levenberg-Marquardt on the spherical Sampson residuals of the inliers:
-/// the linear 8-point fit weighs rays unevenly, this minimises angular errors.
-/// Returns the refined pose and its information matrix (rotation vector
-/// first, then the two tangent directions of the unit translation).
-pub fn refine_pose(R: Rotation3<f64>, t: Vector3<f64>, corr: &[Correspondence], idx: &[usize]) -> (Rotation3<f64>, Vector3<f64>, SMatrix<f64, 5, 5>) {
-    let (mut R, mut t) = (R, t.normalize());
-    let (mut r0, mut r1, mut scratch) = (Vec::new(), Vec::new(), Vec::new());
-    residuals(&R, &t, corr, idx, &mut r0);
-    let mut cost: f64 = r0.iter().map(|v| v * v).sum();
-    let mut lambda = 1e-3;
-    for _ in 0..100 {
-        let (jtj, jtr) = normal_equations(&R, &t, corr, idx, &r0, &mut scratch);
-        let mut improved = false;
-        for _ in 0..5 {
-            let mut damped = jtj;
-            for k in 0..5 {
-                damped[(k, k)] *= 1.0 + lambda;
-            }
-            let Some(step) = damped.cholesky().map(|c| c.solve(&(-jtr))) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let (Rn, tn) = perturb(&R, &t, &step);
-            residuals(&Rn, &tn, corr, idx, &mut r1);
-            let new_cost: f64 = r1.iter().map(|v| v * v).sum();
-            if new_cost < cost {
-                let gain = (cost - new_cost) / cost.max(1e-300);
-                (R, t, cost) = (Rn, tn, new_cost);
-                std::mem::swap(&mut r0, &mut r1);
-                lambda = (lambda * 0.3).max(1e-9);
-                improved = gain > 1e-10;
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    let (information, _) = normal_equations(&R, &t, corr, idx, &r0, &mut scratch);
-    (R, t, information)
-}
-
 /// Estimates and checks the relative pose `b_T_a` from matched bearings.
 /// `seed` makes the RANSAC sampling reproducible.
 pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64) -> PoseOutcome {
     let n = corr.len();
     if n < p.min_inliers.max(8) {
-        return PoseOutcome::Rejected { reason: format!("{n} matches, fewer than {} needed", p.min_inliers.max(8)), inliers: 0 };
+        return PoseOutcome::Rejected {
+            reason: format!("{n} matches, fewer than {} needed", p.min_inliers.max(8)),
+            inliers: 0,
+        };
     }
     let mut rng = SplitMix(seed ^ 0x5DEE_CE66_D1CE_4E5B);
     let general = ransac_essential(corr, p, &mut rng);
@@ -529,7 +481,11 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
     let enough = |count: usize| count >= p.min_inliers && count >= ratio_needed;
     if !enough(best_count) {
         return PoseOutcome::Rejected {
-            reason: format!("{best_count} inliers of {n} matches (need {} and {:.0} %)", p.min_inliers, 100.0 * p.min_inlier_ratio),
+            reason: format!(
+                "{best_count} inliers of {n} matches (need {} and {:.0} %)",
+                p.min_inliers,
+                100.0 * p.min_inlier_ratio
+            ),
             inliers: best_count,
         };
     }
@@ -545,8 +501,14 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
             });
         }
     }
-    let Some(Refined { R, t, information, .. }) = general else {
-        return PoseOutcome::Rejected { reason: "no essential matrix".into(), inliers: 0 };
+    let Some(Refined {
+        R, t, information, ..
+    }) = general
+    else {
+        return PoseOutcome::Rejected {
+            reason: "no essential matrix".into(),
+            inliers: 0,
+        };
     };
     if !enough(e_inliers.len()) {
         return PoseOutcome::Rejected {
@@ -555,7 +517,7 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
         };
     }
     let (rotation_std, translation_std) = pose_std(&information);
-    if !(rotation_std <= p.max_rotation_std) {
+    if rotation_std.is_nan() || rotation_std > p.max_rotation_std {
         return PoseOutcome::Rejected {
             reason: format!(
                 "ill-conditioned pose: rotation σ {:.3}° > {:.3}°",
@@ -565,26 +527,61 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
             inliers: e_inliers.len(),
         };
     }
+    // A plane explains the matches: the essential matrix has a twofold
+    // ambiguity that no covariance shows, so the pose is not determined.
+    if let Some(H) = ransac_homography(corr, &e_inliers, p, &mut rng) {
+        let share = homography_share(&R, &t, &H, corr);
+        if share > p.max_homography_share {
+            return PoseOutcome::Rejected {
+                reason: format!("planar scene: the homography takes {:.0} % of the model score, the pose is ambiguous", 100.0 * share),
+                inliers: e_inliers.len(),
+            };
+        }
+    }
     let front = cheirality(&R, &t, corr, &e_inliers);
     if front < p.min_cheirality {
         return PoseOutcome::Rejected {
-            reason: format!("only {:.0} % of inliers with parallax in front of both cameras", 100.0 * front),
+            reason: format!(
+                "only {:.0} % of inliers with parallax in front of both cameras",
+                100.0 * front
+            ),
             inliers: e_inliers.len(),
         };
     }
     // A rotation well determined with a translation direction that is not
     // (parallax close to the noise): report the rotation only.
-    let kind = if translation_std <= p.max_translation_std { PoseKind::General } else { PoseKind::RotationOnly };
-    let b_t_a = if kind == PoseKind::General { t.normalize() } else { Vector3::zeros() };
-    PoseOutcome::Accepted(RelativePose { b_R_a: R, b_t_a, inliers: e_inliers, kind, rotation_std, translation_std })
+    let kind = if translation_std <= p.max_translation_std {
+        PoseKind::General
+    } else {
+        PoseKind::RotationOnly
+    };
+    let b_t_a = if kind == PoseKind::General {
+        t.normalize()
+    } else {
+        Vector3::zeros()
+    };
+    PoseOutcome::Accepted(RelativePose {
+        b_R_a: R,
+        b_t_a,
+        inliers: e_inliers,
+        kind,
+        rotation_std,
+        translation_std,
+    })
 }
 
 /// Largest standard deviations (radians) of the rotation and of the
 /// translation direction, from the inverse of the information matrix.
 fn pose_std(information: &SMatrix<f64, 5, 5>) -> (f64, f64) {
-    let Some(cov) = information.try_inverse() else { return (f64::INFINITY, f64::INFINITY) };
-    let rot = SymmetricEigen::new(cov.fixed_view::<3, 3>(0, 0).into_owned()).eigenvalues.max();
-    let tra = SymmetricEigen::new(cov.fixed_view::<2, 2>(3, 3).into_owned()).eigenvalues.max();
+    let Some(cov) = information.try_inverse() else {
+        return (f64::INFINITY, f64::INFINITY);
+    };
+    let rot = SymmetricEigen::new(cov.fixed_view::<3, 3>(0, 0).into_owned())
+        .eigenvalues
+        .max();
+    let tra = SymmetricEigen::new(cov.fixed_view::<2, 2>(3, 3).into_owned())
+        .eigenvalues
+        .max();
     (rot.max(0.0).sqrt(), tra.max(0.0).sqrt())
 }
 
@@ -601,20 +598,35 @@ mod tests {
         let t = Vector3::new(0.8, 0.1, 0.4);
         let mut corr = Vec::new();
         for i in 0..200 {
-            let p = Vector3::new(uniform() * 20.0 - 10.0, uniform() * 6.0 - 3.0, 5.0 + uniform() * 30.0);
+            let p = Vector3::new(
+                uniform() * 20.0 - 10.0,
+                uniform() * 6.0 - 3.0,
+                5.0 + uniform() * 30.0,
+            );
             let q = R * p + t;
             let mut b = q.normalize();
             if i % 10 == 0 {
                 b = Vector3::new(uniform() - 0.5, uniform() - 0.5, 1.0).normalize();
             }
-            corr.push(Correspondence { a: p.normalize(), b, sigma: 1e-3 });
+            corr.push(Correspondence {
+                a: p.normalize(),
+                b,
+                sigma: 1e-3,
+            });
         }
-        let PoseOutcome::Accepted(pose) = estimate_relative_pose(&corr, &PoseParams::default(), 1) else {
+        let PoseOutcome::Accepted(pose) = estimate_relative_pose(&corr, &PoseParams::default(), 1)
+        else {
             panic!("rejected");
         };
         assert_eq!(pose.kind, PoseKind::General);
-        assert!((pose.b_R_a.inverse() * R).angle() < 1e-6);
-        assert!(pose.b_t_a.angle(&t) < 1e-6, "{:?} vs {:?}", pose.b_t_a, t.normalize());
+        let err = (pose.b_R_a.matrix() - R.matrix()).norm();
+        assert!(err < 1e-6, "rotation error {err}");
+        assert!(
+            pose.b_t_a.angle(&t) < 1e-6,
+            "{:?} vs {:?}",
+            pose.b_t_a,
+            t.normalize()
+        );
         assert!(pose.inliers.len() >= 175);
     }
 
@@ -626,14 +638,20 @@ mod tests {
         let corr: Vec<_> = (0..100)
             .map(|_| {
                 let a = Vector3::new(uniform() - 0.5, uniform() - 0.5, 1.0).normalize();
-                Correspondence { a, b: R * a, sigma: 1e-3 }
+                Correspondence {
+                    a,
+                    b: R * a,
+                    sigma: 1e-3,
+                }
             })
             .collect();
-        let PoseOutcome::Accepted(pose) = estimate_relative_pose(&corr, &PoseParams::default(), 1) else {
+        let PoseOutcome::Accepted(pose) = estimate_relative_pose(&corr, &PoseParams::default(), 1)
+        else {
             panic!("rejected");
         };
         assert_eq!(pose.kind, PoseKind::RotationOnly);
-        assert!((pose.b_R_a.inverse() * R).angle() < 1e-9);
+        let err = (pose.b_R_a.matrix() - R.matrix()).norm();
+        assert!(err < 1e-6, "rotation error {err}");
         assert_eq!(pose.b_t_a, Vector3::zeros());
     }
 }

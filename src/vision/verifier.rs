@@ -11,7 +11,9 @@ use std::collections::{BTreeMap, HashMap};
 use super::camera::CameraModel;
 use super::features::{FeatureExtractor, GrayImage, KeyframeFeatures, OrbParams};
 use super::matching::{DescriptorMatcher, MatchParams};
-use super::relative_pose::{estimate_relative_pose, Correspondence, PoseOutcome, PoseParams, RelativePose};
+use super::relative_pose::{
+    estimate_relative_pose, Correspondence, PoseOutcome, PoseParams, RelativePose,
+};
 
 /// Default memory cap for stored features: 256 MiB, about 2 500 keyframes of 1 000 ORB features.
 pub const DEFAULT_MEMORY_CAP: usize = 256 << 20;
@@ -143,7 +145,12 @@ impl OrbVerifier {
     /// Extracts the features of a keyframe and stores them (replacing any
     /// keyframe with the same id), evicting the least recently used keyframes
     /// beyond the memory cap.
-    pub fn add_keyframe(&mut self, id: u64, camera: CameraModel, image: GrayImage<'_>) -> Result<(), String> {
+    pub fn add_keyframe(
+        &mut self,
+        id: u64,
+        camera: CameraModel,
+        image: GrayImage<'_>,
+    ) -> Result<(), String> {
         let features = self.extractor.extract(id, camera, image)?;
         self.insert_features(features)
     }
@@ -153,18 +160,30 @@ impl OrbVerifier {
         let id = features.id;
         let bytes = features.memory_bytes() + ENTRY_OVERHEAD;
         if bytes > self.params.memory_cap {
-            return Err(format!("keyframe {id}: features take {bytes} bytes, more than the cap of {} bytes", self.params.memory_cap));
+            return Err(format!(
+                "keyframe {id}: features take {bytes} bytes, more than the cap of {} bytes",
+                self.params.memory_cap
+            ));
         }
         self.remove(id);
         while self.bytes + bytes > self.params.memory_cap {
-            let Some((_, oldest)) = self.lru.pop_first() else { break };
+            let Some((_, oldest)) = self.lru.pop_first() else {
+                break;
+            };
             if let Some(entry) = self.store.remove(&oldest) {
                 self.bytes -= entry.bytes;
             }
         }
         self.clock += 1;
         self.lru.insert(self.clock, id);
-        self.store.insert(id, Entry { features, last_used: self.clock, bytes });
+        self.store.insert(
+            id,
+            Entry {
+                features,
+                last_used: self.clock,
+                bytes,
+            },
+        );
         self.bytes += bytes;
         Ok(())
     }
@@ -213,7 +232,14 @@ impl OrbVerifier {
     /// Decides whether keyframes `query_id` and `match_id` show the same place;
     /// the pose, when confirmed, is `match_T_query`.
     pub fn verify(&mut self, query_id: u64, match_id: u64) -> Verdict {
-        let mut verdict = Verdict { query_id, match_id, pose: None, matches: 0, inliers: 0, reason: String::new() };
+        let mut verdict = Verdict {
+            query_id,
+            match_id,
+            pose: None,
+            matches: 0,
+            inliers: 0,
+            reason: String::new(),
+        };
         for id in [query_id, match_id] {
             if !self.store.contains_key(&id) {
                 verdict.reason = format!("keyframe {id} unknown (never received or evicted)");
@@ -221,7 +247,10 @@ impl OrbVerifier {
             }
             self.touch(id);
         }
-        let (a, b) = (&self.store[&query_id].features, &self.store[&match_id].features);
+        let (a, b) = (
+            &self.store[&query_id].features,
+            &self.store[&match_id].features,
+        );
         let pairs = match self.matcher.match_features(a, b) {
             Ok(p) => p,
             Err(e) => {
@@ -232,13 +261,22 @@ impl OrbVerifier {
         verdict.matches = pairs.len();
         let corr: Vec<Correspondence> = pairs
             .iter()
-            .map(|&(i, j)| Correspondence { a: a.bearings[i], b: b.bearings[j], sigma: a.sigmas[i].hypot(b.sigmas[j]) })
+            .map(|&(i, j)| Correspondence {
+                a: a.bearings[i],
+                b: b.bearings[j],
+                sigma: a.sigmas[i].hypot(b.sigmas[j]),
+            })
             .collect();
         let seed = query_id.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ match_id;
         match estimate_relative_pose(&corr, &self.params.pose, seed) {
             PoseOutcome::Accepted(pose) => {
                 verdict.inliers = pose.inliers.len();
-                verdict.reason = format!("{:?} pose, {} inliers of {} matches", pose.kind, pose.inliers.len(), pairs.len());
+                verdict.reason = format!(
+                    "{:?} pose, {} inliers of {} matches",
+                    pose.kind,
+                    pose.inliers.len(),
+                    pairs.len()
+                );
                 verdict.pose = Some(pose);
             }
             PoseOutcome::Rejected { reason, inliers } => {

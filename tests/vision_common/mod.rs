@@ -20,7 +20,12 @@ pub struct Owned {
 
 impl Owned {
     pub fn view(&self) -> GrayImage<'_> {
-        GrayImage { data: &self.pixels, width: self.width, height: self.height, stride: self.width }
+        GrayImage {
+            data: &self.pixels,
+            width: self.width,
+            height: self.height,
+            stride: self.width,
+        }
     }
 }
 
@@ -28,8 +33,16 @@ impl Owned {
 pub fn load_gray(path: &str) -> Owned {
     let mat = imread(path, IMREAD_GRAYSCALE).unwrap_or_else(|e| panic!("{path}: {e}"));
     assert!(!mat.empty(), "{path}: could not read image");
-    let mat = if mat.is_continuous() { mat } else { mat.try_clone().unwrap() };
-    Owned { pixels: mat.data_bytes().unwrap().to_vec(), width: mat.cols() as u32, height: mat.rows() as u32 }
+    let mat = if mat.is_continuous() {
+        mat
+    } else {
+        mat.try_clone().unwrap()
+    };
+    Owned {
+        pixels: mat.data_bytes().unwrap().to_vec(),
+        width: mat.cols() as u32,
+        height: mat.rows() as u32,
+    }
 }
 
 /// `world_T_cam` of frame `frame` of a KITTI ground-truth file (line frame + 1).
@@ -43,7 +56,10 @@ pub fn kitti_poses(file: &str) -> Vec<Isometry3<f64>> {
     text.lines()
         .filter(|l| !l.trim().is_empty())
         .map(|line| {
-            let v: Vec<f64> = line.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            let v: Vec<f64> = line
+                .split_whitespace()
+                .map(|x| x.parse().unwrap())
+                .collect();
             assert_eq!(v.len(), 12, "{file}: bad line {line}");
             let r = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
             let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r));
