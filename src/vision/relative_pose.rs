@@ -101,7 +101,7 @@ impl Default for PoseParams {
             min_inlier_ratio: 0.25,
             max_rotation_std: 5f64.to_radians(),
             max_translation_std: 10f64.to_radians(),
-            rival_rotation: 2f64.to_radians(),
+            rival_rotation: 5f64.to_radians(),
             rival_cost_margin: 2.0 * CHI2_GAMMA,
             max_homography_share: 0.55,
             min_cheirality: 0.8,
