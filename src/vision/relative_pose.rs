@@ -19,17 +19,24 @@
 //!   two-point RANSAC explains as many matches; the pose is then reported with
 //!   a zero translation.
 //!
-//! Acceptance needs, besides a consistent model: at least `min_inliers`
-//! inliers, an inlier ratio of at least `min_inlier_ratio`, and for a general
-//! pose a well-conditioned fit: the standard deviation of the rotation from
-//! the refinement's information matrix (residuals in units of their noise)
-//! must stay below `max_rotation_std` radians, so degenerate configurations
-//! (planar scenes, where a family of essential matrices fits) are rejected;
-//! and most inliers with measurable parallax must lie in front of both
-//! cameras; and a homography may not take more than `max_homography_share`
-//! of the model-selection score (ORB-SLAM's test: a planar scene leaves a
-//! twofold pose ambiguity that the covariance does not reveal). A translation direction less certain than `max_translation_std`
-//! is not reported (rotation only).
+//! Acceptance needs, besides a consistent model (defaults in brackets):
+//!
+//! * at least `min_inliers` inliers [30] and an inlier ratio of at least
+//!   `min_inlier_ratio` [0.25] of the matches;
+//! * a unique optimum: no second local optimum more than `rival_rotation`
+//!   [5°] away whose MSAC cost is within `rival_cost_margin` [2 χ²₂(95 %)]
+//!   of the best (near-planar scenes and narrow overlaps leave two poses
+//!   that fit equally well, which no local covariance shows);
+//! * a well-conditioned fit: rotation standard deviation from the
+//!   refinement's information matrix below `max_rotation_std` [5°];
+//! * a homography taking at most `max_homography_share` [0.55] of the
+//!   ORB-SLAM model-selection score (planar scene);
+//! * at least `min_cheirality` [80 %] of the inliers with measurable parallax
+//!   in front of both cameras.
+//!
+//! A translation direction less certain than `max_translation_std` [10°] is
+//! not reported (rotation only). Inliers: Sampson error below
+//! `threshold_sigmas` [2] σ.
 
 #![allow(non_snake_case)]
 
