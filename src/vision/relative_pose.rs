@@ -457,11 +457,24 @@ fn ransac_essential(
     }
     // Refine every start; the lowest cost wins, and the best optimum whose
     // rotation differs clearly from the winner's is its rival.
-    let mut refined: Vec<Refined> = starts
+    // Near-identical starts (same E up to sign) converge alike: optimise one.
+    let mut distinct: Vec<(&Matrix3<f64>, &Vec<usize>)> = Vec::new();
+    for (E, inliers) in starts
         .iter()
-        .map(|(E, inliers)| (E, inliers))
-        .chain(pool.iter().map(|(_, E, inliers)| (E, inliers)))
-        .filter(|(_, inliers)| inliers.len() >= 8)
+        .rev()
+        .map(|(E, i)| (E, i))
+        .chain(pool.iter().map(|(_, E, i)| (E, i)))
+    {
+        if inliers.len() >= 8
+            && distinct
+                .iter()
+                .all(|(F, _)| (*F - E).norm().min((*F + E).norm()) >= 0.3)
+        {
+            distinct.push((E, inliers));
+        }
+    }
+    let mut refined: Vec<Refined> = distinct
+        .into_iter()
         .filter_map(|(E, inliers)| local_optimise(E, corr, inliers, p))
         .collect();
     let k = refined
