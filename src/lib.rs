@@ -24,6 +24,8 @@ pub mod pipeline;
 pub mod plot;
 pub mod score;
 pub mod segments;
+#[cfg(feature = "verifier")]
+pub mod sidecar;
 pub mod signature;
 pub mod track;
 pub mod trajectory;

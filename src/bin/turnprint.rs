@@ -95,6 +95,21 @@ enum Command {
         /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv).
         #[arg(long, default_value = "auto")]
         format: Format,
+        /// Start the visual verifier sidecar and verify every candidate on
+        /// keyframes rendered in the built-in test world.
+        #[arg(long)]
+        verify: bool,
+        /// The true poses the keyframes are rendered from (paired with A by
+        /// timestamp, else by order); default: A itself.
+        #[arg(long, requires = "verify")]
+        truth: Option<PathBuf>,
+        /// Camera types assigned along the path.
+        #[arg(long, default_value = "pinhole,fisheye,omni", requires = "verify")]
+        cameras: String,
+        /// With --verify: a figure (SVG or PNG) of the path and the longest
+        /// confirmed loop.
+        #[arg(long, requires = "verify")]
+        plot: Option<PathBuf>,
     },
 }
 
@@ -136,7 +151,17 @@ fn main() -> ExitCode {
             json: _,
             top,
             format,
-        } => run_stream(&a, top, format),
+            verify,
+            truth,
+            cameras,
+            plot,
+        } => {
+            if verify {
+                run_stream_verified(&a, top, format, truth, &cameras, plot)
+            } else {
+                run_stream(&a, top, format)
+            }
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -347,4 +372,45 @@ fn run_stream(a: &Path, top: usize, format: Format) -> Result<(), String> {
     let mut out = std::io::stdout().lock();
     turnprint::online::cli::stream(a, format, &config, &mut out).map_err(|e| e.to_string())?;
     Ok(())
+}
+
+#[cfg(feature = "verifier")]
+fn run_stream_verified(
+    a: &Path,
+    top: usize,
+    format: Format,
+    truth: Option<PathBuf>,
+    cameras: &str,
+    plot: Option<PathBuf>,
+) -> Result<(), String> {
+    use turnprint::sidecar::{stream_verified, CameraKind, VerifyOptions};
+    let cameras = cameras
+        .split(',')
+        .map(CameraKind::parse)
+        .collect::<Result<Vec<_>, _>>()?;
+    let config = turnprint::online::OnlineConfig {
+        top_k: top,
+        ..Default::default()
+    };
+    let options = VerifyOptions {
+        truth,
+        cameras,
+        plot,
+        ..VerifyOptions::default()
+    };
+    let mut out = std::io::stdout().lock();
+    stream_verified(a, format, &config, &options, &mut out).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+#[cfg(not(feature = "verifier"))]
+fn run_stream_verified(
+    _: &Path,
+    _: usize,
+    _: Format,
+    _: Option<PathBuf>,
+    _: &str,
+    _: Option<PathBuf>,
+) -> Result<(), String> {
+    Err("--verify needs the verifier: build with --features verifier".into())
 }
