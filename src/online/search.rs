@@ -100,6 +100,7 @@ impl Searcher {
         let flat = FLAT_FRACTION * total_var;
         let mut fwd = vec![0f64; q1 + 1];
         let mut rev = vec![0f64; q1 + 1];
+        let (mut forward, mut reversed, mut above) = (Vec::new(), Vec::new(), Vec::new());
         let mut pooled: HashMap<(bool, i64), Candidate> = HashMap::new();
         let max_n = qc.max_segments.min(self.pieces.len());
         for n in 1..=max_n {
@@ -121,44 +122,84 @@ impl Searcher {
             if end < len {
                 break;
             }
-            let (f_lo, f_hi) = (len - 1, end - 1);
-            let (r_lo, r_hi) = (0, end - len);
-            for x in f_lo..=f_hi {
-                let e = x + q0 - q1;
-                fwd[x] += piece.forward.get(e).copied().unwrap_or(0.0) as f64;
-            }
-            for x in r_lo..=r_hi {
-                let e = x + q1 - q0;
-                rev[x] += piece.reversed.get(e).copied().unwrap_or(0.0) as f64;
+            // Windows start at st in [0, count): forward x = st + len - 1
+            // (x = target of the newest sample), reversed x = st.
+            let count = end - len + 1;
+            let (f_lo, r_lo) = (len - 1, 0);
+            {
+                // The piece's raw correlations, aligned on x.
+                let f_src = &piece.forward[..piece.forward.len().min(count)];
+                for (acc, &g) in fwd[f_lo..f_lo + f_src.len()].iter_mut().zip(f_src) {
+                    *acc += g as f64;
+                }
+                let r_from = (len - 1).min(piece.reversed.len());
+                let r_src = &piece.reversed[r_from..piece.reversed.len().min(r_from + count)];
+                for (acc, &g) in rev[..r_src.len()].iter_mut().zip(r_src) {
+                    *acc += g as f64;
+                }
             }
             if n < qc.min_segments {
                 continue;
             }
-            let q: Vec<f64> = a[q0..=q1].iter().map(|&v| v as f64).collect();
-            let mean = q.iter().sum::<f64>() / len as f64;
-            let q_norm2: f64 = q.iter().map(|v| (v - mean).powi(2)).sum();
+            let mut q_sum = 0.0;
+            for &v in &a[q0..=q1] {
+                q_sum += v as f64;
+            }
+            let mean = q_sum / len as f64;
+            let q_norm2: f64 = a[q0..=q1].iter().map(|&v| (v as f64 - mean).powi(2)).sum();
             if q_norm2 <= 0.0 {
                 continue;
             }
             let last = a[q1] as f64;
-            let zncc_at = |start: usize, raw: f64, sign: f64| -> f64 {
-                let (s, sq) = self.correlator.window(start, len);
-                let var = sq / len as f64 - (s / len as f64).powi(2);
-                if var <= flat {
-                    return 0.0;
+            let (p1, p2) = (&self.correlator.prefix, &self.correlator.prefix_sq);
+            let min = qc.min_zncc;
+            let inv_l = 1.0 / len as f64;
+            // One fused pass over the window starts, shared by both
+            // directions; below-threshold windows get -2 (all the peak search
+            // needs to know of them) without a root or a division.
+            let (ph, pl) = (&p1[len..len + count], &p1[..count]);
+            let (qh, ql) = (&p2[len..len + count], &p2[..count]);
+            let (fa, fr) = (&fwd[len - 1..len - 1 + count], &a[len - 1..len - 1 + count]);
+            let (ra, rr) = (&rev[..count], &a[..count]);
+            forward.clear();
+            reversed.clear();
+            forward.resize(count, -2.0);
+            reversed.resize(count, -2.0);
+            above.clear();
+            let min2 = min * min;
+            let flat_value = if min <= 0.0 { 0.0 } else { -2.0 };
+            for st in 0..count {
+                let sum = ph[st] - pl[st];
+                let var = (qh[st] - ql[st]) * inv_l - (sum * inv_l) * (sum * inv_l);
+                let ok = var > flat;
+                let d2 = var * len as f64 * q_norm2;
+                let fnum = fa[st] + last * fr[st] as f64 - mean * sum;
+                let rnum = ra[st] - last * rr[st] as f64 + mean * sum;
+                // The threshold test needs no root or division; most
+                // windows fail it.
+                let fpass = min <= 0.0 || (fnum > 0.0 && fnum * fnum >= min2 * d2);
+                let rpass = min <= 0.0 || (rnum > 0.0 && rnum * rnum >= min2 * d2);
+                if !ok {
+                    forward[st] = flat_value;
+                    reversed[st] = flat_value;
+                } else if fpass || rpass {
+                    let inv = 1.0 / d2.sqrt();
+                    if fpass {
+                        forward[st] = (fnum * inv).clamp(-1.0, 1.0);
+                    }
+                    if rpass {
+                        reversed[st] = (rnum * inv).clamp(-1.0, 1.0);
+                    }
                 }
-                let num = raw - sign * mean * s;
-                (num / ((var * len as f64).sqrt() * q_norm2.sqrt())).clamp(-1.0, 1.0)
-            };
+            }
+            for st in 0..count {
+                if forward[st] >= min || reversed[st] >= min {
+                    above.push(st);
+                }
+            }
             let spacing = (len - 1).div_ceil(2).max(1);
-            let forward: Vec<(usize, f64)> = (f_lo..=f_hi)
-                .map(|x| (x, zncc_at(x + 1 - len, fwd[x] + last * a[x] as f64, 1.0)))
-                .collect();
-            let reversed: Vec<(usize, f64)> = (r_lo..=r_hi)
-                .map(|x| (x, zncc_at(x, rev[x] - last * a[x] as f64, -1.0)))
-                .collect();
-            for (is_rev, scores) in [(false, forward), (true, reversed)] {
-                for (x, z) in peaks(&scores, qc.min_zncc, qc.peaks_per_query, spacing) {
+            for (is_rev, lo, scores) in [(false, f_lo, &forward), (true, r_lo, &reversed)] {
+                for (x, z) in peaks(lo, scores, &above, qc.min_zncc, qc.peaks_per_query, spacing) {
                     let line = if is_rev { x as i64 + q1 as i64 } else { x as i64 - q1 as i64 };
                     let cand = Candidate {
                         orientation: Orientation {
@@ -196,18 +237,20 @@ impl Searcher {
     }
 }
 
-/// The best `count` local maxima above `min`, at least `spacing` apart.
-fn peaks(s: &[(usize, f64)], min: f64, count: usize, spacing: usize) -> Vec<(usize, f64)> {
+/// The best `count` local maxima above `min` of `s` (indices from `lo`),
+/// at least `spacing` apart (as the batch peak search); `above` lists the
+/// indices where `s` may reach `min` (all others are below it).
+fn peaks(lo: usize, s: &[f64], above: &[usize], min: f64, count: usize, spacing: usize) -> Vec<(usize, f64)> {
     let mut found: Vec<(usize, f64)> = Vec::new();
-    for i in 0..s.len() {
-        let v = s[i].1;
+    for &i in above {
+        let v = s[i];
         if v < min {
             continue;
         }
-        let left = i == 0 || s[i - 1].1 < v;
-        let right = i + 1 == s.len() || s[i + 1].1 <= v;
+        let left = i == 0 || s[i - 1] < v;
+        let right = i + 1 == s.len() || s[i + 1] <= v;
         if left && right {
-            found.push(s[i]);
+            found.push((lo + i, v));
         }
     }
     found.sort_by(|a, b| b.1.total_cmp(&a.1));

@@ -138,11 +138,16 @@ impl WorkerState {
                 continue;
             }
             self.stats.segments += 1;
-            self.searcher.add_piece(&self.history, k, keep);
             if m.merged && i + 1 < new {
+                // Only the newest segment of a merged message is matched,
+                // and its queries need only the last `keep` pieces.
+                if i + keep >= new {
+                    self.searcher.add_piece(&self.history, k, keep);
+                }
                 self.stats.skipped += 1;
                 continue;
             }
+            self.searcher.add_piece(&self.history, k, keep);
             events.extend(self.match_newest(&m.frame, m.at_pose, true));
         }
         if new == 0 && self.config.proximity {
