@@ -80,7 +80,8 @@ fn kitti_100k() -> Vec<Vector3<f64>> {
     let mut lap = 0.0;
     while out.len() < 100_000 {
         for name in ["00", "02", "05", "06", "08"] {
-            let t = read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Kitti).expect("fixture");
+            let t = read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Kitti)
+                .expect("fixture");
             let shift = Vector3::new(5000.0 * lap, 0.0, 0.0);
             let origin = out.last().copied().unwrap_or_else(Vector3::zeros);
             let first = t.poses[0].position;
@@ -93,7 +94,10 @@ fn kitti_100k() -> Vec<Vector3<f64>> {
 }
 
 fn match_segment(c: &mut Criterion) {
-    for (name, points) in [("kitti", kitti_100k()), ("city", CityDrive::new(7).take(100_000).collect())] {
+    for (name, points) in [
+        ("kitti", kitti_100k()),
+        ("city", CityDrive::new(7).take(100_000).collect()),
+    ] {
         match_segment_on(c, name, &points);
     }
 }

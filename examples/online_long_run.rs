@@ -23,14 +23,19 @@ fn rss_bytes() -> u64 {
 }
 
 fn main() {
-    let total: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(10_000_000);
+    let total: usize = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(10_000_000);
     let chunk = 1_000_000.min(total);
     let rss0 = rss_bytes();
     let mut d = Detector::new(OnlineConfig::default(), Overflow::MergeLatest);
     let mut lat = Vec::with_capacity(chunk);
     let mut candidates = 0usize;
     let t0 = Instant::now();
-    println!("poses     push_p50_ns push_p99_ns push_max_ns  rss_MB  rss_bytes_per_pose  candidates");
+    println!(
+        "poses     push_p50_ns push_p99_ns push_max_ns  rss_MB  rss_bytes_per_pose  candidates"
+    );
     for (i, p) in CityDrive::new(11).take(total).enumerate() {
         let t = Instant::now();
         d.push(&PoseInput::at(p));

@@ -7,7 +7,9 @@ use std::path::Path;
 use nalgebra::Vector3;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::frontend::{Frontend, Outbox};
-use turnprint::online::{Detector, GuardCounts, OnlineConfig, Overflow, PoseInput, Pushed, Rejection};
+use turnprint::online::{
+    Detector, GuardCounts, OnlineConfig, Overflow, PoseInput, Pushed, Rejection,
+};
 
 fn kitti(name: &str) -> Vec<Vector3<f64>> {
     read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Auto)
@@ -42,15 +44,37 @@ fn timestamps_out_of_order_duplicate_and_nan_are_dropped_and_counted() {
     };
     assert_eq!(d.push(&at(1.0, 0.0)), Pushed::Accepted(0));
     assert_eq!(d.push(&at(2.0, 1.0)), Pushed::Accepted(1));
-    assert_eq!(d.push(&at(1.5, 2.0)), Pushed::Rejected(2, Rejection::OutOfOrder));
-    assert_eq!(d.push(&at(2.0, 2.0)), Pushed::Rejected(3, Rejection::Duplicate));
-    assert_eq!(d.push(&at(f64::NAN, 2.0)), Pushed::Rejected(4, Rejection::NonFinite));
-    assert_eq!(d.push(&at(3.0, f64::NAN)), Pushed::Rejected(5, Rejection::NonFinite));
-    assert_eq!(d.push(&at(3.0, f64::INFINITY)), Pushed::Rejected(6, Rejection::NonFinite));
+    assert_eq!(
+        d.push(&at(1.5, 2.0)),
+        Pushed::Rejected(2, Rejection::OutOfOrder)
+    );
+    assert_eq!(
+        d.push(&at(2.0, 2.0)),
+        Pushed::Rejected(3, Rejection::Duplicate)
+    );
+    assert_eq!(
+        d.push(&at(f64::NAN, 2.0)),
+        Pushed::Rejected(4, Rejection::NonFinite)
+    );
+    assert_eq!(
+        d.push(&at(3.0, f64::NAN)),
+        Pushed::Rejected(5, Rejection::NonFinite)
+    );
+    assert_eq!(
+        d.push(&at(3.0, f64::INFINITY)),
+        Pushed::Rejected(6, Rejection::NonFinite)
+    );
     assert_eq!(d.push(&at(3.0, 3.0)), Pushed::Accepted(7));
     let (_, s) = d.finish();
     assert_eq!((s.poses, s.accepted), (8, 3));
-    assert_eq!((s.guards.out_of_order, s.guards.duplicate, s.guards.non_finite), (1, 1, 3));
+    assert_eq!(
+        (
+            s.guards.out_of_order,
+            s.guards.duplicate,
+            s.guards.non_finite
+        ),
+        (1, 1, 3)
+    );
 }
 
 #[test]
@@ -62,14 +86,21 @@ fn a_single_far_pose_is_dropped_as_a_glitch() {
     let (b, counts) = front(&glitch);
     assert_eq!(counts.outliers, 1);
     assert_eq!(counts.jumps, 0);
-    assert!((turning(&a) - turning(&b)).abs() < 0.02 * turning(&a), "K {} vs {}", turning(&a), turning(&b));
+    assert!(
+        (turning(&a) - turning(&b)).abs() < 0.02 * turning(&a),
+        "K {} vs {}",
+        turning(&a),
+        turning(&b)
+    );
     assert_eq!(a.bounds.len(), b.bounds.len());
     // The glitch never pulls the smoothed track: every sample stays within
     // a metre (about one typical step) of the clean track's.
     for (i, g) in b.grid.iter().enumerate() {
         let lo = i.saturating_sub(3);
         let hi = (i + 3).min(a.grid.len() - 1);
-        let d = (lo..=hi).map(|j| (a.grid[j].xy - g.xy).norm()).fold(f64::INFINITY, f64::min);
+        let d = (lo..=hi)
+            .map(|j| (a.grid[j].xy - g.xy).norm())
+            .fold(f64::INFINITY, f64::min);
         assert!(d < 1.0, "sample {i} is {d} off");
     }
 }
@@ -87,7 +118,12 @@ fn a_lasting_jump_is_removed_by_re_anchoring() {
     assert_eq!(counts.outliers, 0);
     // Without the filter the jump would add two sharp turns (> 1 rad); with
     // it, the turning stays within 5 % and the segments within one.
-    assert!((turning(&a) - turning(&b)).abs() < 0.05 * turning(&a), "K {} vs {}", turning(&a), turning(&b));
+    assert!(
+        (turning(&a) - turning(&b)).abs() < 0.05 * turning(&a),
+        "K {} vs {}",
+        turning(&a),
+        turning(&b)
+    );
     assert!(a.bounds.len().abs_diff(b.bounds.len()) <= 1);
     let length = |o: &Outbox| o.grid.last().unwrap().s;
     assert!((length(&a) - length(&b)).abs() < 0.01 * length(&a));
@@ -107,7 +143,12 @@ fn standing_still_for_a_long_time_adds_nothing() {
     stopped.extend_from_slice(&clean[500..]);
     let (a, _) = front(&clean);
     let (b, _) = front(&stopped);
-    assert!(b.grid.len() <= a.grid.len() + 2, "{} vs {} track samples", b.grid.len(), a.grid.len());
+    assert!(
+        b.grid.len() <= a.grid.len() + 2,
+        "{} vs {} track samples",
+        b.grid.len(),
+        a.grid.len()
+    );
     assert_eq!(a.bounds.len(), b.bounds.len());
     assert!((turning(&a) - turning(&b)).abs() < 0.01 * turning(&a));
 }
@@ -135,7 +176,10 @@ fn a_full_queue_defers_and_skips_but_loses_no_sample() {
     assert_eq!(blocked.worker.skipped, 0);
     // Pushing a whole file at memory speed outruns the matching thread.
     assert!(merged.deferred > 0, "no deferral: {merged:?}");
-    assert_eq!(merged.worker.matched + merged.worker.skipped, merged.worker.segments);
+    assert_eq!(
+        merged.worker.matched + merged.worker.skipped,
+        merged.worker.segments
+    );
 }
 
 #[test]

@@ -79,9 +79,15 @@ fn stream_with_warmup_parameters_is_close_to_the_batch() {
         let (batch, out) = stream(name, None);
         let k_batch = batch.signature.total();
         let k_stream = out.sig.len().saturating_sub(1) as f64 * batch.signature.dk;
-        assert!((k_stream / k_batch - 1.0).abs() < 0.03, "{name}: K {k_stream} vs {k_batch}");
+        assert!(
+            (k_stream / k_batch - 1.0).abs() < 0.03,
+            "{name}: K {k_stream} vs {k_batch}"
+        );
         let (nb, ns) = (batch.bounds.len() as f64, out.bounds.len() as f64);
-        assert!((ns / nb - 1.0).abs() < 0.15, "{name}: {ns} vs {nb} boundaries");
+        assert!(
+            (ns / nb - 1.0).abs() < 0.15,
+            "{name}: {ns} vs {nb} boundaries"
+        );
         let length = batch.track.length();
         let s_stream: Vec<f64> = out.bounds.iter().map(|&b| out.sig[b].s).collect();
         let near = batch
@@ -94,6 +100,9 @@ fn stream_with_warmup_parameters_is_close_to_the_batch() {
             .count();
         eprintln!("{name}: K {k_stream:.2}/{k_batch:.2} bounds {ns}/{nb} near {near}");
         let missed = nb - near as f64;
-        assert!(missed <= (0.2 * nb).max(1.0), "{name}: {near} of {nb} boundaries matched");
+        assert!(
+            missed <= (0.2 * nb).max(1.0),
+            "{name}: {near} of {nb} boundaries matched"
+        );
     }
 }

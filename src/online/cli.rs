@@ -13,11 +13,23 @@ use crate::{Error, Result};
 
 /// Streams the trajectory at `path` and writes one JSON object per line
 /// to `out`: candidates as they come, then the summary.
-pub fn stream(path: &Path, format: Format, config: &OnlineConfig, out: &mut dyn Write) -> Result<Summary> {
+pub fn stream(
+    path: &Path,
+    format: Format,
+    config: &OnlineConfig,
+    out: &mut dyn Write,
+) -> Result<Summary> {
     let trajectory = read_trajectory(path, format)?;
     let name = path.display().to_string();
     if trajectory.len() < crate::pipeline::prepare::MIN_POSES {
-        return Err(Error::input(&name, format!("{} poses; the method needs at least {}", trajectory.len(), crate::pipeline::prepare::MIN_POSES)));
+        return Err(Error::input(
+            &name,
+            format!(
+                "{} poses; the method needs at least {}",
+                trajectory.len(),
+                crate::pipeline::prepare::MIN_POSES
+            ),
+        ));
     }
     let io_err = |e: std::io::Error| Error::Io {
         path: "<stdout>".into(),

@@ -58,7 +58,11 @@ impl BlockCorrelator {
         let mut planner = FftPlanner::new();
         let fft = planner.plan_fft_forward(2 * block);
         let ifft = planner.plan_fft_inverse(2 * block);
-        let scratch = vec![Complex::new(0.0, 0.0); fft.get_inplace_scratch_len().max(ifft.get_inplace_scratch_len())];
+        let scratch = vec![
+            Complex::new(0.0, 0.0);
+            fft.get_inplace_scratch_len()
+                .max(ifft.get_inplace_scratch_len())
+        ];
         BlockCorrelator {
             block,
             fft,
@@ -117,7 +121,12 @@ impl BlockCorrelator {
                 forward[e] = f;
                 reversed[e] = r;
             }
-            return Piece { start, len, forward, reversed };
+            return Piece {
+                start,
+                len,
+                forward,
+                reversed,
+            };
         }
         let m = 2 * self.block;
         let mut pf: Vec<Complex<f32>> = p.iter().map(|&v| Complex::new(v, 0.0)).collect();
@@ -154,7 +163,12 @@ impl BlockCorrelator {
                 reversed[e as usize] -= buf[(e - base) as usize].im * norm;
             }
         }
-        Piece { start, len, forward, reversed }
+        Piece {
+            start,
+            len,
+            forward,
+            reversed,
+        }
     }
 
     /// Sum and sum of squares of `a[lo..lo+len]`.
@@ -167,6 +181,7 @@ impl BlockCorrelator {
 
     /// Bytes held by the block spectra and prefix sums.
     pub fn bytes(&self) -> usize {
-        self.spectra.iter().map(|s| s.capacity() * 8).sum::<usize>() + (self.prefix.capacity() + self.prefix_sq.capacity()) * 8
+        self.spectra.iter().map(|s| s.capacity() * 8).sum::<usize>()
+            + (self.prefix.capacity() + self.prefix_sq.capacity()) * 8
     }
 }

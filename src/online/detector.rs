@@ -94,14 +94,17 @@ pub struct Detector {
     merging: bool,
 }
 
-
 impl Detector {
     /// A detector with its worker thread.
     pub fn new(config: OnlineConfig, overflow: Overflow) -> Detector {
         let (tx, rx) = bounded(config.queue_capacity.max(1));
         let (etx, events) = unbounded();
         let worker = Some(spawn(config.clone(), rx, etx));
-        let flush_samples = if config.proximity { config.probe_every.max(1) } else { 4096 };
+        let flush_samples = if config.proximity {
+            config.probe_every.max(1)
+        } else {
+            4096
+        };
         Detector {
             front: Frontend::Warmup(Vec::with_capacity(config.warmup_min_poses)),
             config,
@@ -124,7 +127,8 @@ impl Detector {
     pub fn with_params(config: OnlineConfig, overflow: Overflow, params: TrackParams) -> Detector {
         let mut d = Detector::new(config, overflow);
         let (mut counts, mut out) = (GuardCounts::default(), Outbox::default());
-        d.front.start_with(params, &d.config, &mut counts, &mut out, Vec::new());
+        d.front
+            .start_with(params, &d.config, &mut counts, &mut out, Vec::new());
         d
     }
 
@@ -151,7 +155,13 @@ impl Detector {
                 if let Some(k) = pose.keyframe {
                     self.outbox.keyframes.push((index, k));
                 }
-                self.front.push(index, pose.position, &self.config, &mut self.summary.guards, &mut self.outbox);
+                self.front.push(
+                    index,
+                    pose.position,
+                    &self.config,
+                    &mut self.summary.guards,
+                    &mut self.outbox,
+                );
                 if !self.outbox.bounds.is_empty() || self.outbox.grid.len() >= self.flush_samples {
                     self.send();
                 }
@@ -229,7 +239,8 @@ impl Detector {
     pub fn finish(mut self) -> (Vec<CandidateEvent>, Summary) {
         let mut counts = self.summary.guards;
         if let super::frontend::Frontend::Warmup(_) = self.front {
-            self.front.start(&self.config, &mut counts, &mut self.outbox);
+            self.front
+                .start(&self.config, &mut counts, &mut self.outbox);
         }
         if let super::frontend::Frontend::Running(s) = &mut self.front {
             s.flush(&mut counts, &mut self.outbox);

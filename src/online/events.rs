@@ -88,7 +88,8 @@ pub struct Ledger {
 impl Ledger {
     /// Records a candidate handed to the verifier.
     pub fn open(&mut self, c: &CandidateEvent) {
-        self.open.insert(c.id, (c.at_pose, std::time::Instant::now()));
+        self.open
+            .insert(c.id, (c.at_pose, std::time::Instant::now()));
     }
 
     /// Records an outcome; false when the id is unknown or already resolved.

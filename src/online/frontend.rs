@@ -15,7 +15,9 @@ use super::OnlineConfig;
 use crate::geometry::Plane;
 use crate::segments::BoundaryStream;
 use crate::signature::{SigPoint, SignatureStream};
-use crate::track::{ChordParam, ChordStream, DiffStream, GridPoint, GridStream, Smoother, TrackPoint};
+use crate::track::{
+    ChordParam, ChordStream, DiffStream, GridPoint, GridStream, Smoother, TrackPoint,
+};
 
 /// Parameters of the incremental track, chosen at warm-up (or given).
 #[derive(Debug, Clone, Copy)]
@@ -80,7 +82,10 @@ pub struct Outbox {
 impl Outbox {
     /// True when there is nothing to send.
     pub fn is_empty(&self) -> bool {
-        self.grid.is_empty() && self.sig.is_empty() && self.bounds.is_empty() && self.keyframes.is_empty()
+        self.grid.is_empty()
+            && self.sig.is_empty()
+            && self.bounds.is_empty()
+            && self.keyframes.is_empty()
     }
 }
 
@@ -113,7 +118,13 @@ impl Streams {
     }
 
     /// Feeds pose `index` (3D position, already checked finite).
-    pub fn push(&mut self, index: usize, p: &Vector3<f64>, counts: &mut GuardCounts, out: &mut Outbox) {
+    pub fn push(
+        &mut self,
+        index: usize,
+        p: &Vector3<f64>,
+        counts: &mut GuardCounts,
+        out: &mut Outbox,
+    ) {
         let xy = self.params.plane.to_2d(p);
         match self.jumps.push(index, xy, counts) {
             Passed::None => {}
@@ -132,7 +143,11 @@ impl Streams {
         }
         let count = self.grid.count_for(self.chord.u());
         let Self {
-            grid, diff, sig, bounds, ..
+            grid,
+            diff,
+            sig,
+            bounds,
+            ..
         } = self;
         grid.flush(count, &mut |g| on_grid(g, diff, sig, bounds, out));
         diff.flush(&mut |t| on_track(t, sig, bounds, out));
@@ -146,17 +161,32 @@ impl Streams {
             return;
         }
         let Self {
-            grid, diff, sig, bounds, ..
+            grid,
+            diff,
+            sig,
+            bounds,
+            ..
         } = self;
         grid.push(u, xy, index, &mut |g| on_grid(g, diff, sig, bounds, out));
     }
 }
 
-fn on_grid(g: GridPoint, diff: &mut DiffStream, sig: &mut SignatureStream, bounds: &mut BoundaryStream, out: &mut Outbox) {
+fn on_grid(
+    g: GridPoint,
+    diff: &mut DiffStream,
+    sig: &mut SignatureStream,
+    bounds: &mut BoundaryStream,
+    out: &mut Outbox,
+) {
     diff.push(g, &mut |t| on_track(t, sig, bounds, out));
 }
 
-fn on_track(t: TrackPoint, sig: &mut SignatureStream, bounds: &mut BoundaryStream, out: &mut Outbox) {
+fn on_track(
+    t: TrackPoint,
+    sig: &mut SignatureStream,
+    bounds: &mut BoundaryStream,
+    out: &mut Outbox,
+) {
     out.grid.push(GridRec {
         xy: t.xy,
         s: t.s,
@@ -184,12 +214,22 @@ pub enum Frontend {
 
 impl Frontend {
     /// Feeds one checked pose; may end the warm-up (then replays it).
-    pub fn push(&mut self, index: usize, p: Vector3<f64>, config: &OnlineConfig, counts: &mut GuardCounts, out: &mut Outbox) {
+    pub fn push(
+        &mut self,
+        index: usize,
+        p: Vector3<f64>,
+        config: &OnlineConfig,
+        counts: &mut GuardCounts,
+        out: &mut Outbox,
+    ) {
         match self {
             Frontend::Running(s) => s.push(index, &p, counts, out),
             Frontend::Warmup(buf) => {
                 buf.push((index, p));
-                if buf.len() >= config.warmup_min_poses && (buf.len() >= config.warmup_max_poses || spans_plane(buf, config.plane_ratio)) {
+                if buf.len() >= config.warmup_min_poses
+                    && (buf.len() >= config.warmup_max_poses
+                        || spans_plane(buf, config.plane_ratio))
+                {
                     self.start(config, counts, out);
                 }
             }
@@ -198,7 +238,12 @@ impl Frontend {
 
     /// Ends the warm-up now (with whatever prefix there is) and replays it.
     /// Returns false when the prefix does not move.
-    pub fn start(&mut self, config: &OnlineConfig, counts: &mut GuardCounts, out: &mut Outbox) -> bool {
+    pub fn start(
+        &mut self,
+        config: &OnlineConfig,
+        counts: &mut GuardCounts,
+        out: &mut Outbox,
+    ) -> bool {
         let Frontend::Warmup(buf) = self else {
             return true;
         };
@@ -212,7 +257,14 @@ impl Frontend {
     }
 
     /// Starts with given parameters (replaying `buf`).
-    pub fn start_with(&mut self, params: TrackParams, config: &OnlineConfig, counts: &mut GuardCounts, out: &mut Outbox, buf: Vec<(usize, Vector3<f64>)>) {
+    pub fn start_with(
+        &mut self,
+        params: TrackParams,
+        config: &OnlineConfig,
+        counts: &mut GuardCounts,
+        out: &mut Outbox,
+        buf: Vec<(usize, Vector3<f64>)>,
+    ) {
         let mut streams = Box::new(Streams::new(params, config));
         for (i, p) in &buf {
             streams.push(*i, p, counts, out);
@@ -232,7 +284,7 @@ impl Frontend {
 /// Does the prefix span a plane (not just a line)?
 fn spans_plane(buf: &[(usize, Vector3<f64>)], ratio: f64) -> bool {
     // Checked every 32 poses: the eigen decomposition is not free.
-    if buf.len() % 32 != 0 {
+    if !buf.len().is_multiple_of(32) {
         return false;
     }
     let n = buf.len() as f64;
@@ -242,7 +294,11 @@ fn spans_plane(buf: &[(usize, Vector3<f64>)], ratio: f64) -> bool {
         let d = p - c;
         m += d * d.transpose();
     }
-    let mut ev: Vec<f64> = nalgebra::SymmetricEigen::new(m).eigenvalues.iter().copied().collect();
+    let mut ev: Vec<f64> = nalgebra::SymmetricEigen::new(m)
+        .eigenvalues
+        .iter()
+        .copied()
+        .collect();
     ev.sort_by(|a, b| b.total_cmp(a));
     ev[1] > ratio * ev[2].max(0.0) && ev[1] > 1e-4 * ev[0]
 }

@@ -71,8 +71,12 @@ impl History {
 
     /// Keyframe ids of poses in `[p0, p1]`, at most `max` spread evenly.
     pub fn keyframes_in(&self, range: [usize; 2], max: usize) -> Vec<u64> {
-        let lo = self.keyframes.partition_point(|k| (k.0 as usize) < range[0]);
-        let hi = self.keyframes.partition_point(|k| (k.0 as usize) <= range[1]);
+        let lo = self
+            .keyframes
+            .partition_point(|k| (k.0 as usize) < range[0]);
+        let hi = self
+            .keyframes
+            .partition_point(|k| (k.0 as usize) <= range[1]);
         let n = hi - lo;
         if n <= max {
             return self.keyframes[lo..hi].iter().map(|k| k.1).collect();
@@ -84,7 +88,16 @@ impl History {
 
     /// Track samples `[g0, g1]` (clamped) as a prepared path.
     #[allow(clippy::too_many_arguments)]
-    pub fn window(&self, g0: usize, g1: usize, plane: &Plane, step: f64, bandwidth: f64, dk: f64, poses: usize) -> Option<Window> {
+    pub fn window(
+        &self,
+        g0: usize,
+        g1: usize,
+        plane: &Plane,
+        step: f64,
+        bandwidth: f64,
+        dk: f64,
+        poses: usize,
+    ) -> Option<Window> {
         let g1 = g1.min(self.xy.len().checked_sub(1)?);
         if g1 < g0 + 3 {
             return None;
@@ -163,14 +176,17 @@ impl SpatialIndex {
     }
 
     fn key(&self, p: &Vector2<f64>) -> (i32, i32) {
-        ((p.x / self.cell).floor() as i32, (p.y / self.cell).floor() as i32)
+        (
+            (p.x / self.cell).floor() as i32,
+            (p.y / self.cell).floor() as i32,
+        )
     }
 
     /// Indexes the history's new samples.
     pub fn update(&mut self, h: &History) {
         while self.indexed < h.xy.len() {
             let i = self.indexed;
-            if i % self.every == 0 {
+            if i.is_multiple_of(self.every) {
                 let k = self.key(&h.point(i));
                 self.cells.entry(k).or_default().push(i as u32);
             }
@@ -179,7 +195,13 @@ impl SpatialIndex {
     }
 
     /// Nearest indexed sample to `p` within `radius` that passes `allowed`.
-    pub fn nearest(&self, h: &History, p: &Vector2<f64>, radius: f64, allowed: impl Fn(usize) -> bool) -> Option<(f64, usize)> {
+    pub fn nearest(
+        &self,
+        h: &History,
+        p: &Vector2<f64>,
+        radius: f64,
+        allowed: impl Fn(usize) -> bool,
+    ) -> Option<(f64, usize)> {
         let r = (radius / self.cell).ceil() as i32;
         if r > 64 {
             return None;

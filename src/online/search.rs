@@ -69,7 +69,9 @@ impl Searcher {
     /// Takes in the history's new samples (spectra, prefix sums, index).
     pub fn update(&mut self, h: &History, frame: &Frame) {
         self.correlator.update(&h.sig_value);
-        let spatial = self.spatial.get_or_insert_with(|| SpatialIndex::new(64.0 * frame.step, 4));
+        let spatial = self
+            .spatial
+            .get_or_insert_with(|| SpatialIndex::new(64.0 * frame.step, 4));
         spatial.update(h);
     }
 
@@ -200,7 +202,11 @@ impl Searcher {
             let spacing = (len - 1).div_ceil(2).max(1);
             for (is_rev, lo, scores) in [(false, f_lo, &forward), (true, r_lo, &reversed)] {
                 for (x, z) in peaks(lo, scores, &above, qc.min_zncc, qc.peaks_per_query, spacing) {
-                    let line = if is_rev { x as i64 + q1 as i64 } else { x as i64 - q1 as i64 };
+                    let line = if is_rev {
+                        x as i64 + q1 as i64
+                    } else {
+                        x as i64 - q1 as i64
+                    };
                     let cand = Candidate {
                         orientation: Orientation {
                             reversed: is_rev,
@@ -240,7 +246,14 @@ impl Searcher {
 /// The best `count` local maxima above `min` of `s` (indices from `lo`),
 /// at least `spacing` apart (as the batch peak search); `above` lists the
 /// indices where `s` may reach `min` (all others are below it).
-fn peaks(lo: usize, s: &[f64], above: &[usize], min: f64, count: usize, spacing: usize) -> Vec<(usize, f64)> {
+fn peaks(
+    lo: usize,
+    s: &[f64],
+    above: &[usize],
+    min: f64,
+    count: usize,
+    spacing: usize,
+) -> Vec<(usize, f64)> {
     let mut found: Vec<(usize, f64)> = Vec::new();
     for &i in above {
         let v = s[i];
@@ -269,7 +282,12 @@ fn peaks(lo: usize, s: &[f64], above: &[usize], min: f64, count: usize, spacing:
 /// Proximity seed of the newest two segments (as the batch proximity
 /// seeds), or, for a periodic probe (`segments == false`), of the newest
 /// `window` track samples.
-pub fn proximity_seed(h: &History, spatial: &SpatialIndex, segments: bool, window: usize) -> Option<([usize; 2], usize)> {
+pub fn proximity_seed(
+    h: &History,
+    spatial: &SpatialIndex,
+    segments: bool,
+    window: usize,
+) -> Option<([usize; 2], usize)> {
     let last = h.xy.len().checked_sub(1)?;
     let nb = h.bounds.len();
     let g0 = if segments && nb >= 3 {
@@ -283,7 +301,12 @@ pub fn proximity_seed(h: &History, spatial: &SpatialIndex, segments: bool, windo
 /// The probe of track samples `[g0, g1]`: the median nearest earlier
 /// sample (at least the window's own length back along the path) when the
 /// probes' median distance is below [`NEAR_FRACTION`] of the window length.
-pub fn probe(h: &History, spatial: &SpatialIndex, g0: usize, g1: usize) -> Option<([usize; 2], usize)> {
+pub fn probe(
+    h: &History,
+    spatial: &SpatialIndex,
+    g0: usize,
+    g1: usize,
+) -> Option<([usize; 2], usize)> {
     if g1 <= g0 + PROBES {
         return None;
     }
@@ -303,7 +326,9 @@ pub fn probe(h: &History, spatial: &SpatialIndex, g0: usize, g1: usize) -> Optio
         }
     }
     dists.sort_by(f64::total_cmp);
-    if !(dists[PROBES / 2] < radius) || targets.is_empty() {
+    if dists[PROBES / 2].partial_cmp(&radius) != Some(std::cmp::Ordering::Less)
+        || targets.is_empty()
+    {
         return None;
     }
     targets.sort_unstable();
@@ -321,16 +346,35 @@ pub fn verify_all(
     let pc = &config.pipeline;
     let dk = pc.signature.dk;
     let mut found = Vec::new();
-    let window = |g0: usize, g1: usize| h.window(g0, g1, &frame.plane, frame.step, frame.bandwidth, dk, frame.poses);
+    let window = |g0: usize, g1: usize| {
+        h.window(
+            g0,
+            g1,
+            &frame.plane,
+            frame.step,
+            frame.bandwidth,
+            dk,
+            frame.poses,
+        )
+    };
     for cand in shape {
         let (q0, q1) = (cand.query[0], cand.query[1]);
         let t = [cand.target_of(q0), cand.target_of(q1)];
-        let (t0, t1) = (t[0].min(t[1]).max(0) as usize, t[0].max(t[1]).max(0) as usize);
+        let (t0, t1) = (
+            t[0].min(t[1]).max(0) as usize,
+            t[0].max(t[1]).max(0) as usize,
+        );
         if t1 >= h.sig_grid.len() {
             continue;
         }
-        let (gq0, gq1) = (h.sig_grid[q0].floor() as usize, h.sig_grid[q1].ceil() as usize);
-        let (gt0, gt1) = (h.sig_grid[t0].floor() as usize, h.sig_grid[t1].ceil() as usize);
+        let (gq0, gq1) = (
+            h.sig_grid[q0].floor() as usize,
+            h.sig_grid[q1].ceil() as usize,
+        );
+        let (gt0, gt1) = (
+            h.sig_grid[t0].floor() as usize,
+            h.sig_grid[t1].ceil() as usize,
+        );
         // Room to grow: the query's own length on each side.
         let room = gq1 - gq0;
         let Some(qw) = window(gq0.saturating_sub(room), gq1 + room) else {
@@ -343,7 +387,11 @@ pub fn verify_all(
         let local = Candidate {
             query: [q0 - qw.sig0, q1 - qw.sig0],
             seed: [cand.seed[0] - qw.sig0, cand.seed[1] - qw.sig0],
-            line: if cand.orientation.reversed { cand.line - qs - ts } else { cand.line + qs - ts },
+            line: if cand.orientation.reversed {
+                cand.line - qs - ts
+            } else {
+                cand.line + qs - ts
+            },
             ..cand.clone()
         };
         if local.query[1] >= qw.path.signature.len() {
@@ -363,7 +411,10 @@ pub fn verify_all(
     if let Some((range, target)) = seed {
         let room = range[1] - range[0];
         if let (Some(qw), Some(tw)) = (
-            window(range[0].saturating_sub(room), (range[1] + room).min(h.xy.len() - 1)),
+            window(
+                range[0].saturating_sub(room),
+                (range[1] + room).min(h.xy.len() - 1),
+            ),
             window(target.saturating_sub(2 * room), target + 2 * room),
         ) {
             let seed_len = h.s[range[1]] - h.s[range[0]];
@@ -375,7 +426,16 @@ pub fn verify_all(
             let xy = qw.path.points(false);
             let local = [range[0] - qw.grid0, range[1] - qw.grid0];
             // The two windows are one map: the identity between the frames.
-            if let Some(v) = verify::verify_seeded(&tw.path, &qw.path, &xy, local, Similarity2::identity(), false, pc, &allowed) {
+            if let Some(v) = verify::verify_seeded(
+                &tw.path,
+                &qw.path,
+                &xy,
+                local,
+                Similarity2::identity(),
+                false,
+                pc,
+                &allowed,
+            ) {
                 found.extend(finish(h, &tw, &qw, &v, frame, config, true));
             }
         }
@@ -387,7 +447,15 @@ pub fn verify_all(
             frame.poses,
             shape.len(),
             seed,
-            found.iter().map(|f| (f.hypothesis.score, f.hypothesis.a_range, f.hypothesis.b_range, f.proximity)).collect::<Vec<_>>()
+            found
+                .iter()
+                .map(|f| (
+                    f.hypothesis.score,
+                    f.hypothesis.a_range,
+                    f.hypothesis.b_range,
+                    f.proximity
+                ))
+                .collect::<Vec<_>>()
         );
     }
     let mut kept: Vec<Found> = Vec::new();
@@ -400,7 +468,8 @@ pub fn verify_all(
         }
         let dup = kept.iter().any(|k| {
             crate::pipeline::rank::range_overlap(k.hypothesis.b_range, f.hypothesis.b_range) > 0.5
-                && crate::pipeline::rank::range_overlap(k.hypothesis.a_range, f.hypothesis.a_range) > 0.5
+                && crate::pipeline::rank::range_overlap(k.hypothesis.a_range, f.hypothesis.a_range)
+                    > 0.5
         });
         if !dup {
             kept.push(f);
@@ -415,7 +484,15 @@ pub fn verify_all(
 /// A verified overlap as a loop hypothesis (query = later part), scored
 /// with the drift prior like the batch `loops`.
 #[allow(non_snake_case)]
-fn finish(h: &History, tw: &Window, qw: &Window, v: &Verified, frame: &Frame, config: &OnlineConfig, proximity: bool) -> Option<Found> {
+fn finish(
+    h: &History,
+    tw: &Window,
+    qw: &Window,
+    v: &Verified,
+    frame: &Frame,
+    config: &OnlineConfig,
+    proximity: bool,
+) -> Option<Found> {
     let o = &v.overlap;
     let pose_t = |g: f64| tw.path.pose_of_grid(g);
     let pose_q = |g: f64| qw.path.pose_of_grid(g);
@@ -424,7 +501,12 @@ fn finish(h: &History, tw: &Window, qw: &Window, v: &Verified, frame: &Frame, co
     // The windows are one map: a_T_b maps target (earlier) onto query.
     let mut a_T_b = o.a_T_b.inverse();
     let step = (o.pairs.len() / 50).max(1);
-    let mut correspondences: Vec<(usize, usize)> = o.pairs.iter().step_by(step).map(|&(t, q)| (pose_q(q as f64), pose_t(t))).collect();
+    let mut correspondences: Vec<(usize, usize)> = o
+        .pairs
+        .iter()
+        .step_by(step)
+        .map(|&(t, q)| (pose_q(q as f64), pose_t(t)))
+        .collect();
     if b_range[0] > a_range[0] {
         std::mem::swap(&mut a_range, &mut b_range);
         a_T_b = a_T_b.inverse();
@@ -450,7 +532,11 @@ fn finish(h: &History, tw: &Window, qw: &Window, v: &Verified, frame: &Frame, co
     let angle = a_T_b.angle.rem_euclid(std::f64::consts::TAU);
     let angle = angle.min(std::f64::consts::TAU - angle);
     let s = match &pc.drift_prior {
-        Some(prior) => loop_score(&v.evidence, prior.factor(angle, a_T_b.scale, offset, length, between), &pc.score),
+        Some(prior) => loop_score(
+            &v.evidence,
+            prior.factor(angle, a_T_b.scale, offset, length, between),
+            &pc.score,
+        ),
         None => score(&v.evidence, &pc.score),
     };
     if !s.is_finite() {

@@ -63,7 +63,12 @@ impl Iterator for CityDrive {
             };
             // Blocks counted from the end of the turn: a quarter turn
             // shortens the straight by its radius on both sides.
-            self.straight = BLOCK - if self.turn_left != 0.0 { 2.0 * RADIUS } else { 0.0 };
+            self.straight = BLOCK
+                - if self.turn_left != 0.0 {
+                    2.0 * RADIUS
+                } else {
+                    0.0
+                };
         } else {
             self.straight -= step;
         }

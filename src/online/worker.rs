@@ -76,7 +76,11 @@ pub struct WorkerStats {
 }
 
 /// Starts the worker thread.
-pub fn spawn(config: OnlineConfig, rx: Receiver<Message>, tx: Sender<CandidateEvent>) -> JoinHandle<WorkerStats> {
+pub fn spawn(
+    config: OnlineConfig,
+    rx: Receiver<Message>,
+    tx: Sender<CandidateEvent>,
+) -> JoinHandle<WorkerStats> {
     std::thread::Builder::new()
         .name("turnprint-online".into())
         .spawn(move || run(config, rx, tx))
@@ -123,7 +127,8 @@ impl WorkerState {
             h.sig_value.push(p.value as f32);
             h.sig_grid.push(p.grid);
         }
-        h.keyframes.extend(m.out.keyframes.iter().map(|&(p, k)| (p as u32, k)));
+        h.keyframes
+            .extend(m.out.keyframes.iter().map(|&(p, k)| (p as u32, k)));
         self.searcher.update(h, &m.frame);
         let keep = self.config.pipeline.query.max_segments;
         let new = m.out.bounds.len();
@@ -159,7 +164,12 @@ impl WorkerState {
     }
 
     /// Runs the queries of the newest segment.
-    pub fn match_newest(&mut self, frame: &Frame, at_pose: usize, shape: bool) -> Vec<CandidateEvent> {
+    pub fn match_newest(
+        &mut self,
+        frame: &Frame,
+        at_pose: usize,
+        shape: bool,
+    ) -> Vec<CandidateEvent> {
         let start = Instant::now();
         let h = &self.history;
         let segments = shape;
@@ -198,9 +208,15 @@ impl WorkerState {
     /// Final figures.
     pub fn finish_stats(&mut self) -> WorkerStats {
         let h = &self.history;
-        let pieces: usize = self.searcher.pieces.iter().map(|p| (p.forward.capacity() + p.reversed.capacity()) * 4).sum();
+        let pieces: usize = self
+            .searcher
+            .pieces
+            .iter()
+            .map(|p| (p.forward.capacity() + p.reversed.capacity()) * 4)
+            .sum();
         let spatial = self.searcher.spatial.as_ref().map_or(0, |s| s.bytes());
-        self.stats.history_bytes = (h.bytes() + self.searcher.correlator.bytes() + pieces + spatial) as u64;
+        self.stats.history_bytes =
+            (h.bytes() + self.searcher.correlator.bytes() + pieces + spatial) as u64;
         self.stats.grid_samples = h.xy.len() as u64;
         self.stats.sig_samples = h.sig_value.len() as u64;
         self.stats

@@ -65,7 +65,10 @@ impl Smoother {
         while *lo < chord.u.len() && chord.u[*lo] < u - reach {
             *lo += 1;
         }
-        let window = chord.u[*lo..].iter().copied().zip(chord.points[*lo..].iter().copied());
+        let window = chord.u[*lo..]
+            .iter()
+            .copied()
+            .zip(chord.points[*lo..].iter().copied());
         match self.kernel(window, u) {
             Some(fit) => fit,
             None => {

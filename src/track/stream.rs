@@ -68,12 +68,18 @@ impl GridStream {
 
     /// Feeds a kept pose (chord parameter `u`, position, original index)
     /// and emits every grid sample that became final.
-    pub fn push(&mut self, u: f64, xy: Vector2<f64>, index: usize, out: &mut impl FnMut(GridPoint)) {
+    pub fn push(
+        &mut self,
+        u: f64,
+        xy: Vector2<f64>,
+        index: usize,
+        out: &mut impl FnMut(GridPoint),
+    ) {
         self.window.push_back(Kept { u, xy, index });
         let reach = self.smoother.reach();
         loop {
             let ui = self.next as f64 * self.step;
-            if !(u > ui + reach) {
+            if u <= ui + reach || u.is_nan() {
                 break;
             }
             out(self.eval(ui));
