@@ -102,7 +102,7 @@ impl Searcher {
         let flat = FLAT_FRACTION * total_var;
         let mut fwd = vec![0f64; q1 + 1];
         let mut rev = vec![0f64; q1 + 1];
-        let (mut forward, mut reversed, mut above) = (Vec::new(), Vec::new(), Vec::new());
+        let mut hits: Vec<(usize, f64, f64)> = Vec::new();
         let mut pooled: HashMap<(bool, i64), Candidate> = HashMap::new();
         let max_n = qc.max_segments.min(self.pieces.len());
         for n in 1..=max_n {
@@ -163,45 +163,45 @@ impl Searcher {
             let (qh, ql) = (&p2[len..len + count], &p2[..count]);
             let (fa, fr) = (&fwd[len - 1..len - 1 + count], &a[len - 1..len - 1 + count]);
             let (ra, rr) = (&rev[..count], &a[..count]);
-            forward.clear();
-            reversed.clear();
-            forward.resize(count, -2.0);
-            reversed.resize(count, -2.0);
-            above.clear();
+            // Only windows that reach the threshold in some direction are
+            // kept (sparse, in order): the pass is memory-bound, so it
+            // writes nothing for the others.
+            hits.clear();
             let min2 = min * min;
             let flat_value = if min <= 0.0 { 0.0 } else { -2.0 };
             for st in 0..count {
                 let sum = ph[st] - pl[st];
                 let var = (qh[st] - ql[st]) * inv_l - (sum * inv_l) * (sum * inv_l);
-                let ok = var > flat;
+                if var <= flat {
+                    if min <= 0.0 {
+                        hits.push((st, flat_value, flat_value));
+                    }
+                    continue;
+                }
                 let d2 = var * len as f64 * q_norm2;
                 let fnum = fa[st] + last * fr[st] as f64 - mean * sum;
                 let rnum = ra[st] - last * rr[st] as f64 + mean * sum;
-                // The threshold test needs no root or division; most
-                // windows fail it.
+                // The threshold test needs no root or division.
                 let fpass = min <= 0.0 || (fnum > 0.0 && fnum * fnum >= min2 * d2);
                 let rpass = min <= 0.0 || (rnum > 0.0 && rnum * rnum >= min2 * d2);
-                if !ok {
-                    forward[st] = flat_value;
-                    reversed[st] = flat_value;
-                } else if fpass || rpass {
+                if fpass || rpass {
                     let inv = 1.0 / d2.sqrt();
-                    if fpass {
-                        forward[st] = (fnum * inv).clamp(-1.0, 1.0);
-                    }
-                    if rpass {
-                        reversed[st] = (rnum * inv).clamp(-1.0, 1.0);
-                    }
-                }
-            }
-            for st in 0..count {
-                if forward[st] >= min || reversed[st] >= min {
-                    above.push(st);
+                    let f = if fpass {
+                        (fnum * inv).clamp(-1.0, 1.0)
+                    } else {
+                        -2.0
+                    };
+                    let r = if rpass {
+                        (rnum * inv).clamp(-1.0, 1.0)
+                    } else {
+                        -2.0
+                    };
+                    hits.push((st, f, r));
                 }
             }
             let spacing = (len - 1).div_ceil(2).max(1);
-            for (is_rev, lo, scores) in [(false, f_lo, &forward), (true, r_lo, &reversed)] {
-                for (x, z) in peaks(lo, scores, &above, qc.min_zncc, qc.peaks_per_query, spacing) {
+            for (is_rev, lo) in [(false, f_lo), (true, r_lo)] {
+                for (x, z) in peaks(lo, &hits, is_rev, qc.min_zncc, qc.peaks_per_query, spacing) {
                     let line = if is_rev {
                         x as i64 + q1 as i64
                     } else {
@@ -243,27 +243,29 @@ impl Searcher {
     }
 }
 
-/// The best `count` local maxima above `min` of `s` (indices from `lo`),
-/// at least `spacing` apart (as the batch peak search); `above` lists the
-/// indices where `s` may reach `min` (all others are below it).
+/// The best `count` local maxima above `min` of one direction's scores
+/// (indices from `lo`), at least `spacing` apart, as the batch peak search.
+/// `hits` lists, in order, the windows where either direction reaches
+/// `min` (forward, reversed score); every other window is below it.
 fn peaks(
     lo: usize,
-    s: &[f64],
-    above: &[usize],
+    hits: &[(usize, f64, f64)],
+    reversed: bool,
     min: f64,
     count: usize,
     spacing: usize,
 ) -> Vec<(usize, f64)> {
+    let value = |h: &(usize, f64, f64)| if reversed { h.2 } else { h.1 };
     let mut found: Vec<(usize, f64)> = Vec::new();
-    for &i in above {
-        let v = s[i];
+    for (k, h) in hits.iter().enumerate() {
+        let v = value(h);
         if v < min {
             continue;
         }
-        let left = i == 0 || s[i - 1] < v;
-        let right = i + 1 == s.len() || s[i + 1] <= v;
+        let left = k == 0 || hits[k - 1].0 + 1 != h.0 || value(&hits[k - 1]) < v;
+        let right = k + 1 == hits.len() || hits[k + 1].0 != h.0 + 1 || value(&hits[k + 1]) <= v;
         if left && right {
-            found.push((lo + i, v));
+            found.push((lo + h.0, v));
         }
     }
     found.sort_by(|a, b| b.1.total_cmp(&a.1));
