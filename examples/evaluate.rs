@@ -27,10 +27,10 @@ struct Args {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Positive merge cases (negatives: a third as many).
-    #[arg(long, default_value_t = 120)]
+    #[arg(long, default_value_t = 480)]
     cases: usize,
     /// Loop runs per sequence and source.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 4)]
     loop_seeds: u64,
     /// Print JSON instead of Markdown.
     #[arg(long)]

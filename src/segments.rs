@@ -61,7 +61,8 @@ pub fn boundaries(sig: &Signature, config: &SegmentConfig) -> Vec<usize> {
 
 /// Segment boundaries one signature sample at a time.
 ///
-/// `r_j = ln(ds/dK)` needs sample `j + 1`; sample `j` is a boundary when it
+/// `r_j = ln(s_{j+1} - s_j)` (the arc length per `K` step after sample
+/// `j`) needs sample `j + 1`; sample `j` is a boundary when it
 /// is the prominent extremum of `r` within `±w` samples, so it is final once
 /// sample `j + w + 1` has arrived: a bounded lag of `w + 1` samples
 /// (`window` radians of `K` plus one step).
@@ -116,13 +117,11 @@ impl BoundaryStream {
             self.s_prev = [s, s];
             return Some(0);
         }
-        // r of sample n-1: one-sided at the start, central after.
-        let (lo_s, lo, hi) = if n == 1 {
-            (self.s_prev[1], n - 1, n)
-        } else {
-            (self.s_prev[0], n - 2, n)
-        };
-        self.push_r((s - lo_s) / (hi - lo) as f64, s);
+        // r of sample n-1: the gap to the next sample. (One-sided on
+        // purpose: a straight lies in one gap, so it is one clear maximum,
+        // not a near-tie of two samples that travel direction would break
+        // differently.)
+        self.push_r(s - self.s_prev[1], s);
         self.s_prev = [self.s_prev[1], s];
         // Sample j = n-1-w now has its whole window.
         let j = (n - 1).checked_sub(self.w)?;
@@ -195,6 +194,16 @@ impl BoundaryStream {
     }
 }
 
+/// Arc length of boundary `k`: the middle of the step after it, so that a
+/// boundary on a straight sits mid-straight whichever way the path runs.
+pub fn boundary_arc(sig: &Signature, k: usize) -> f64 {
+    match (sig.s.get(k), sig.s.get(k + 1)) {
+        (Some(a), Some(b)) => 0.5 * (a + b),
+        (Some(a), None) => *a,
+        _ => 0.0,
+    }
+}
+
 /// The clothoid pieces between boundaries, each fitted with curvature linear
 /// in arc length and continuous across boundaries (G2).
 pub fn segments(sig: &Signature, bounds: &[usize]) -> Vec<Segment> {
@@ -208,7 +217,7 @@ pub fn segments(sig: &Signature, bounds: &[usize]) -> Vec<Segment> {
             start: b[0],
             end: b[1],
             kappa: [kappa_at(b[0]), kappa_at(b[1])],
-            s: [sig.s[b[0]], sig.s[b[1]]],
+            s: [boundary_arc(sig, b[0]), boundary_arc(sig, b[1])],
         })
         .collect()
 }

@@ -11,7 +11,13 @@ use turnprint::online::OnlineConfig;
 #[test]
 fn stream_writes_candidates_then_a_summary() {
     let mut out = Vec::new();
-    let summary = stream(Path::new("tests/data/00.txt"), Format::Auto, &OnlineConfig::default(), &mut out).unwrap();
+    let summary = stream(
+        Path::new("tests/data/00.txt"),
+        Format::Auto,
+        &OnlineConfig::default(),
+        &mut out,
+    )
+    .unwrap();
     let lines: Vec<serde_json::Value> = String::from_utf8(out)
         .unwrap()
         .lines()
@@ -20,12 +26,28 @@ fn stream_writes_candidates_then_a_summary() {
     let (last, candidates) = lines.split_last().unwrap();
     assert_eq!(last["event"], "summary");
     assert_eq!(last["poses"], 4541);
-    assert_eq!(last["candidates"].as_u64().unwrap() as usize, candidates.len());
+    assert_eq!(
+        last["candidates"].as_u64().unwrap() as usize,
+        candidates.len()
+    );
     assert_eq!(summary.worker.candidates as usize, candidates.len());
     assert!(!candidates.is_empty());
     for c in candidates {
         assert_eq!(c["event"], "candidate");
-        for key in ["at_pose", "id", "rank", "score", "zncc", "reversed", "query_range", "match_range", "scale", "rotation", "translation", "rmse"] {
+        for key in [
+            "at_pose",
+            "id",
+            "rank",
+            "score",
+            "zncc",
+            "reversed",
+            "query_range",
+            "match_range",
+            "scale",
+            "rotation",
+            "translation",
+            "rmse",
+        ] {
             assert!(c.get(key).is_some(), "missing {key} in {c}");
         }
         let q = c["query_range"].as_array().unwrap();
@@ -47,6 +69,12 @@ fn stream_names_the_file_on_bad_input() {
     assert!(err.to_string().contains("bad.txt"), "{err}");
     let short = dir.path().join("short.txt");
     std::fs::write(&short, "0 0 0\n1 1 0\n").unwrap();
-    let err = stream(&short, Format::Xyz, &OnlineConfig::default(), &mut Vec::new()).unwrap_err();
+    let err = stream(
+        &short,
+        Format::Xyz,
+        &OnlineConfig::default(),
+        &mut Vec::new(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("short.txt"), "{err}");
 }

@@ -31,6 +31,8 @@ fn kitti00_halves() -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Hypothesis) {
         translation: Vector3::zeros(),
         rmse: residual.norm(),
         turning: 3.0,
+        length: 1200.0,
+        length_ratio: 1.0,
         correspondences: (0..=1500).map(|k| (1500 + k, k)).collect(),
     };
     (a, b, hypothesis)

@@ -189,6 +189,8 @@ pub fn grow_and_refit(
             .map(|(a, b)| (sim.apply(b) - a).norm())
             .collect();
         let rmse = (residuals.iter().map(|d| d * d).sum::<f64>() / residuals.len() as f64).sqrt();
+        let converged = (last_rmse - rmse).abs() <= 0.02 * rmse
+            && result.as_ref().is_some_and(|r: &Overlap| r.query == range);
         last_rmse = rmse;
         let (tmin, tmax) = matched
             .iter()
@@ -205,6 +207,9 @@ pub fn grow_and_refit(
             query_length: sim.scale * (query.s[range[1]] - query.s[range[0]]),
             reversed: sign < 0.0,
         });
+        if converged {
+            break;
+        }
     }
     result
 }

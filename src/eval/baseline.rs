@@ -19,8 +19,8 @@ pub struct Naive {
     pub threshold_steps: f64,
     /// Non-hit poses allowed inside one loop.
     pub max_gap: usize,
-    /// A jump of the matched earlier pose by more than this many poses
-    /// starts a new loop (another earlier place).
+    /// Matched earlier poses more than this many poses apart belong to
+    /// different earlier passes: one loop each.
     pub max_match_jump: usize,
     /// How many loops to return.
     pub top_k: usize,
@@ -50,8 +50,8 @@ impl Naive {
         if !threshold.is_finite() {
             return Vec::new();
         }
-        // (query first, query last, match min, match max, last match, distances)
-        let mut groups: Vec<(usize, usize, usize, usize, usize, Vec<f64>)> = Vec::new();
+        // Runs of consecutive hits (gaps <= max_gap) as (i, j, d) lists.
+        let mut runs: Vec<Vec<(usize, usize, f64)>> = Vec::new();
         for (i, n) in nearest_earlier(positions, self.min_gap)
             .into_iter()
             .enumerate()
@@ -59,31 +59,35 @@ impl Naive {
             let Some((j, d)) = n.filter(|(_, d)| *d <= threshold) else {
                 continue;
             };
-            match groups.last_mut() {
-                Some(g)
-                    if i - g.1 <= self.max_gap + 1 && j.abs_diff(g.4) <= self.max_match_jump =>
-                {
-                    g.1 = i;
-                    g.2 = g.2.min(j);
-                    g.3 = g.3.max(j);
-                    g.4 = j;
-                    g.5.push(d);
-                }
-                _ => groups.push((i, i, j, j, j, vec![d])),
+            match runs.last_mut() {
+                Some(run) if i - run[run.len() - 1].0 <= self.max_gap + 1 => run.push((i, j, d)),
+                _ => runs.push(vec![(i, j, d)]),
             }
         }
-        let mut claims: Vec<(f64, LoopClaim)> = groups
-            .into_iter()
-            .map(|g| {
-                let mean = g.5.iter().sum::<f64>() / g.5.len() as f64;
+        // Within a run, the matches may alternate between earlier passes
+        // over the same road: one loop per cluster of matched poses.
+        let mut claims: Vec<(f64, LoopClaim)> = Vec::new();
+        for mut run in runs {
+            run.sort_by_key(|h| h.1);
+            let mut start = 0;
+            for k in 1..=run.len() {
+                if k < run.len() && run[k].1 - run[k - 1].1 <= self.max_match_jump {
+                    continue;
+                }
+                let cluster = &run[start..k];
+                start = k;
+                let mean = cluster.iter().map(|h| h.2).sum::<f64>() / cluster.len() as f64;
+                let (q0, q1) = cluster
+                    .iter()
+                    .fold((usize::MAX, 0), |(lo, hi), h| (lo.min(h.0), hi.max(h.0)));
                 let claim = LoopClaim {
-                    query: [g.0, g.1],
-                    matched: [g.2, g.3],
+                    query: [q0, q1],
+                    matched: [cluster[0].1, cluster[cluster.len() - 1].1],
                     score: 1.0 / (1.0 + mean / threshold),
                 };
-                (mean, claim)
-            })
-            .collect();
+                claims.push((mean, claim));
+            }
+        }
         claims.sort_by(|a, b| a.0.total_cmp(&b.0));
         claims.into_iter().take(self.top_k).map(|c| c.1).collect()
     }
@@ -141,5 +145,41 @@ mod tests {
             })
             .collect();
         assert!(Naive::default().loops(&p).is_empty());
+    }
+
+    #[test]
+    fn interleaved_earlier_passes_give_one_loop_each() {
+        // Passes along x at y = 0 (poses 0..200), y = 1 (400..600) and
+        // y = 0.5 (1000..1200); the first two are offset by 0.2 on alternate
+        // poses so the third pass's nearest earlier pose flips between them.
+        let mut p: Vec<Vector3<f64>> = Vec::new();
+        for k in 0..1200usize {
+            let x = (k % 200) as f64;
+            let odd = (k % 2) as f64;
+            p.push(match k {
+                0..200 => Vector3::new(x + 0.2 * (1.0 - odd), 0.0, 0.0),
+                400..600 => Vector3::new(x + 0.2 * odd, 1.0, 0.0),
+                1000..1200 => Vector3::new(x, 0.5, 0.0),
+                _ => Vector3::new(-500.0 - k as f64, 500.0, 0.0),
+            });
+        }
+        let loops = Naive::default().loops(&p);
+        // The second pass revisits the first; the third revisits both.
+        assert_eq!(loops.len(), 3, "{loops:?}");
+        let third: Vec<_> = loops.iter().filter(|l| l.query[0] >= 1000).collect();
+        assert_eq!(third.len(), 2, "{loops:?}");
+        let mut matched: Vec<[usize; 2]> = third.iter().map(|l| l.matched).collect();
+        matched.sort();
+        assert!(
+            matched[0][0] <= 2 && matched[0][1] >= 197 && matched[0][1] < 200,
+            "{loops:?}"
+        );
+        assert!(
+            matched[1][0] <= 402 && matched[1][1] >= 597 && matched[1][1] < 600,
+            "{loops:?}"
+        );
+        assert!(third
+            .iter()
+            .all(|l| l.query[0] <= 1002 && l.query[1] >= 1197));
     }
 }

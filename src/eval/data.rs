@@ -99,11 +99,19 @@ pub fn frame_at_time(times: &[f64], t: f64) -> Option<f64> {
     Some((k - 1) as f64 + if t1 > t0 { (t - t0) / (t1 - t0) } else { 0.0 })
 }
 
-/// Resolves the data directory: `dir` if it holds `kitti_gt/00.txt`, else
-/// `tests/data` if that does.
+/// Where a data file is: `dir/sub/file` (the shared data's layout) or
+/// `dir/file` (the flat layout of `tests/data`).
+pub fn locate(dir: &Path, sub: &str, file: &str) -> Option<PathBuf> {
+    [dir.join(sub).join(file), dir.join(file)]
+        .into_iter()
+        .find(|p| p.is_file())
+}
+
+/// Resolves the data directory: `dir` if it holds KITTI 00's ground truth,
+/// else `tests/data` if that does.
 pub fn resolve_data_dir(dir: &Path) -> Result<PathBuf> {
     for d in [dir, Path::new("tests/data")] {
-        if d.join("kitti_gt/00.txt").is_file() {
+        if locate(d, "kitti_gt", "00.txt").is_some() {
             return Ok(d.to_path_buf());
         }
     }
@@ -113,29 +121,45 @@ pub fn resolve_data_dir(dir: &Path) -> Result<PathBuf> {
     ))
 }
 
-/// Loads one sequence (ground truth, times, mono estimate, and GPS for 00).
+/// Loads one sequence: ground truth (required), and where their files are
+/// present, frame times with the mono estimate paired by time, and for 00
+/// the GPS. A source whose files are missing stays empty / `None`.
 pub fn load_sequence(dir: &Path, name: &str) -> Result<Sequence> {
-    let gt = reader::kitti_positions(&dir.join(format!("kitti_gt/{name}.txt")))?;
-    let times_path = dir.join(format!("kitti_gt/{name}_times.txt"));
-    let times = reader::times(&times_path)?;
-    if times.len() != gt.len() {
-        return Err(Error::input(
-            times_path.display().to_string(),
-            format!("{} times for {} poses", times.len(), gt.len()),
-        ));
-    }
-    let mono_raw = reader::tum(&dir.join(format!("kitti_orbslam2_vio/{name}_orbslam2_tum.txt")))?;
+    let gt_path = locate(dir, "kitti_gt", &format!("{name}.txt")).ok_or_else(|| {
+        Error::input(dir.display().to_string(), format!("no kitti_gt/{name}.txt"))
+    })?;
+    let gt = reader::kitti_positions(&gt_path)?;
+    let times = match locate(dir, "kitti_gt", &format!("{name}_times.txt")) {
+        Some(times_path) => {
+            let times = reader::times(&times_path)?;
+            if times.len() != gt.len() {
+                return Err(Error::input(
+                    times_path.display().to_string(),
+                    format!("{} times for {} poses", times.len(), gt.len()),
+                ));
+            }
+            times
+        }
+        None => Vec::new(),
+    };
+    let mono_path = locate(
+        dir,
+        "kitti_orbslam2_vio",
+        &format!("{name}_orbslam2_tum.txt"),
+    );
     let mut mono = Sourced::default();
-    for (t, p) in mono_raw {
-        // Mono times are the frame times rounded to microseconds.
-        let k = times.partition_point(|x| *x < t);
-        let best = [k.saturating_sub(1), k.min(times.len() - 1)]
-            .into_iter()
-            .min_by(|a, b| (times[*a] - t).abs().total_cmp(&(times[*b] - t).abs()))
-            .filter(|j| (times[*j] - t).abs() < 0.02);
-        if let Some(j) = best {
-            mono.positions.push(p);
-            mono.frames.push(j as f64);
+    if let (Some(mono_path), false) = (mono_path, times.is_empty()) {
+        for (t, p) in reader::timed(&mono_path, crate::io::Format::Tum)? {
+            // Mono times are the frame times rounded to microseconds.
+            let k = times.partition_point(|x| *x < t);
+            let best = [k.saturating_sub(1), k.min(times.len() - 1)]
+                .into_iter()
+                .min_by(|a, b| (times[*a] - t).abs().total_cmp(&(times[*b] - t).abs()))
+                .filter(|j| (times[*j] - t).abs() < 0.02);
+            if let Some(j) = best {
+                mono.positions.push(p);
+                mono.frames.push(j as f64);
+            }
         }
     }
     let arc = arc_lengths(&gt);
@@ -147,17 +171,15 @@ pub fn load_sequence(dir: &Path, name: &str) -> Result<Sequence> {
         mono,
         gps: None,
     };
-    if name == "00" {
-        let gps_path = dir.join("gtsam_data/KittiGps_converted.txt");
-        if gps_path.is_file() {
-            let rows = reader::gps_csv(&gps_path)?;
-            seq.gps = Some(align_gps(&seq, &rows).ok_or_else(|| {
-                Error::input(
-                    gps_path.display().to_string(),
-                    "GPS does not align with KITTI 00",
-                )
-            })?);
-        }
+    let gps_path = locate(dir, "gtsam_data", "KittiGps_converted.txt");
+    if let (Some(gps_path), "00", false) = (gps_path, name, seq.times.is_empty()) {
+        let rows = reader::timed(&gps_path, crate::io::Format::Csv)?;
+        seq.gps = Some(align_gps(&seq, &rows).ok_or_else(|| {
+            Error::input(
+                gps_path.display().to_string(),
+                "GPS does not align with KITTI 00",
+            )
+        })?);
     }
     Ok(seq)
 }
@@ -216,71 +238,51 @@ pub fn align_gps(seq: &Sequence, rows: &[(f64, Vector3<f64>)]) -> Option<(Source
     Some((gps, alignment))
 }
 
-/// TEMPORARY private readers, to be replaced by `crate::io::read_trajectory`
-/// (Format::Kitti / Tum / Csv) once the `io` module is merged. The frame
-/// times reader stays (one number per line is no trajectory format).
+/// File reading: trajectories through `crate::io`, frame times (one number
+/// per line, no trajectory format) here.
 mod reader {
     use super::*;
+    use crate::io::{read_trajectory, Format};
 
-    fn lines(path: &Path) -> Result<Vec<(usize, String)>> {
+    /// Positions of a KITTI pose file.
+    pub fn kitti_positions(path: &Path) -> Result<Vec<Vector3<f64>>> {
+        Ok(read_trajectory(path, Format::Kitti)?.positions())
+    }
+
+    /// `(t, position)` of a timed trajectory (TUM, or CSV with a time column).
+    pub fn timed(path: &Path, format: Format) -> Result<Vec<(f64, Vector3<f64>)>> {
+        let traj = read_trajectory(path, format)?;
+        traj.poses
+            .iter()
+            .enumerate()
+            .map(|(i, p)| match p.t {
+                Some(t) => Ok((t, p.position)),
+                None => Err(Error::input(
+                    path.display().to_string(),
+                    format!("pose {i} has no timestamp"),
+                )),
+            })
+            .collect()
+    }
+
+    /// One time (s) per line; blank lines and `#` comments skipped.
+    pub fn times(path: &Path) -> Result<Vec<f64>> {
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
             path: path.to_path_buf(),
             source,
         })?;
-        Ok(text
-            .lines()
+        text.lines()
             .enumerate()
-            .map(|(i, l)| (i + 1, l.trim().to_string()))
+            .map(|(i, l)| (i + 1, l.trim()))
             .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
-            .collect())
-    }
-
-    fn numbers(path: &Path, line: usize, text: &str, want: usize) -> Result<Vec<f64>> {
-        let v: std::result::Result<Vec<f64>, _> = text
-            .split(|c: char| c.is_whitespace() || c == ',')
-            .filter(|s| !s.is_empty())
-            .map(str::parse::<f64>)
-            .collect();
-        match v {
-            Ok(v) if v.len() == want && v.iter().all(|x| x.is_finite()) => Ok(v),
-            _ => Err(Error::Parse {
-                path: path.to_path_buf(),
-                line,
-                message: format!("expected {want} finite numbers"),
-            }),
-        }
-    }
-
-    /// Positions (last column) of KITTI 3x4 pose lines.
-    pub fn kitti_positions(path: &Path) -> Result<Vec<Vector3<f64>>> {
-        lines(path)?
-            .iter()
-            .map(|(n, l)| numbers(path, *n, l, 12).map(|v| Vector3::new(v[3], v[7], v[11])))
-            .collect()
-    }
-
-    /// One time per line.
-    pub fn times(path: &Path) -> Result<Vec<f64>> {
-        lines(path)?
-            .iter()
-            .map(|(n, l)| numbers(path, *n, l, 1).map(|v| v[0]))
-            .collect()
-    }
-
-    /// `(t, position)` of TUM lines.
-    pub fn tum(path: &Path) -> Result<Vec<(f64, Vector3<f64>)>> {
-        lines(path)?
-            .iter()
-            .map(|(n, l)| numbers(path, *n, l, 8).map(|v| (v[0], Vector3::new(v[1], v[2], v[3]))))
-            .collect()
-    }
-
-    /// `(t, position)` of `Time,X,Y,Z` CSV rows (header skipped).
-    pub fn gps_csv(path: &Path) -> Result<Vec<(f64, Vector3<f64>)>> {
-        lines(path)?
-            .iter()
-            .filter(|(_, l)| !l.starts_with("Time"))
-            .map(|(n, l)| numbers(path, *n, l, 4).map(|v| (v[0], Vector3::new(v[1], v[2], v[3]))))
+            .map(|(line, l)| match l.parse::<f64>() {
+                Ok(t) if t.is_finite() => Ok(t),
+                _ => Err(Error::Parse {
+                    path: path.to_path_buf(),
+                    line,
+                    message: format!("expected one time in seconds, found {l:?}"),
+                }),
+            })
             .collect()
     }
 }

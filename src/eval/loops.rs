@@ -10,7 +10,7 @@ use rand::{rngs::StdRng, SeedableRng};
 use serde::Serialize;
 
 use super::baseline::Naive;
-use super::checks::{loop_correct, LoopClaim};
+use super::checks::{loop_correct, median, LoopClaim};
 use super::drift::DriftModel;
 use super::similarity::random_similarity;
 use super::{Prepared, Source};
@@ -43,6 +43,10 @@ pub struct LoopRun {
     pub rank1_correct: bool,
     pub seconds: f64,
     pub error: Option<String>,
+    /// How far apart, in the input's own frame, ground-truth revisits are:
+    /// median over revisiting frames of the input distance to the revisited
+    /// frame, in median input steps (the naive baseline's threshold is 8).
+    pub revisit_separation_steps: f64,
     /// The returned loops, best first, each with its verdict.
     pub loops: Vec<(LoopClaim, bool)>,
 }
@@ -88,6 +92,33 @@ fn score(
     (covered, claims.len(), correct, ok)
 }
 
+/// Median input-frame distance between a ground-truth revisit and the frame
+/// it revisits, in median steps of the input (see [`LoopRun`]).
+pub fn revisit_separation(p: &Prepared, positions: &[Vector3<f64>], frames: &[f64]) -> f64 {
+    let mut index_of = vec![None; p.seq.gt.len()];
+    for (k, f) in frames.iter().enumerate() {
+        if let Some(slot) = index_of.get_mut(f.round() as usize) {
+            *slot = Some(k);
+        }
+    }
+    let steps: Vec<f64> = positions
+        .windows(2)
+        .map(|w| (w[1] - w[0]).norm())
+        .filter(|d| *d > 0.0)
+        .collect();
+    let step = median(&steps);
+    let d: Vec<f64> = p
+        .revisits
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| {
+            let (qi, qj) = (index_of[i]?, index_of[(*r)?]?);
+            Some((positions[qi] - positions[qj]).norm() / step)
+        })
+        .collect();
+    median(&d)
+}
+
 /// Runs `find_loops` and the naive baseline on one input (sequence, source,
 /// seed): the seed fixes the drift and the similarity.
 pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [LoopRun; 2] {
@@ -124,6 +155,7 @@ pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [Loop
     let naive_claims = Naive::default().loops(&positions);
     let naive_seconds = start.elapsed().as_secs_f64();
 
+    let separation = revisit_separation(p, &positions, &frames);
     let make = |method, claims: &[LoopClaim], seconds, error| {
         let (events_covered, returned, correct, ok) = score(claims, &truth, &frames, p);
         LoopRun {
@@ -138,6 +170,7 @@ pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [Loop
             rank1_correct: ok.first().copied().unwrap_or(false),
             seconds,
             error,
+            revisit_separation_steps: separation,
             loops: claims.iter().copied().zip(ok).collect(),
         }
     };

@@ -82,6 +82,15 @@ impl Prepared {
             events,
         }
     }
+
+    /// True when the data for `source` was found.
+    pub fn has(&self, source: Source) -> bool {
+        match source {
+            Source::Gt | Source::Drift => true,
+            Source::Mono => !self.seq.mono.positions.is_empty(),
+            Source::Gps => self.seq.gps.is_some(),
+        }
+    }
 }
 
 /// What to evaluate.
@@ -117,9 +126,9 @@ impl Default for Options {
         Options {
             data: PathBuf::from("../shared/data"),
             seed: 1,
-            cases: 120,
-            negatives: 40,
-            loop_seeds: 2,
+            cases: 480,
+            negatives: 160,
+            loop_seeds: 4,
             what: What::All,
         }
     }
@@ -139,7 +148,10 @@ pub fn run(opts: &Options) -> Result<Report> {
     } else {
         0
     } + if do_loops {
-        15 * opts.loop_seeds as usize
+        let inputs = prepared
+            .iter()
+            .map(|p| 2 + usize::from(p.has(Source::Mono)));
+        inputs.sum::<usize>() * opts.loop_seeds as usize
     } else {
         0
     };
@@ -148,27 +160,27 @@ pub fn run(opts: &Options) -> Result<Report> {
     if do_merge {
         let spec = windows::WindowSpec::default();
         let mut rng = StdRng::seed_from_u64(opts.seed);
-        let with_gps: Vec<&Prepared> = prepared.iter().filter(|p| p.seq.gps.is_some()).collect();
-        let sources: &[Source] = if with_gps.is_empty() {
-            &[Source::Gt, Source::Mono]
-        } else {
-            &[Source::Gt, Source::Mono, Source::Gps]
-        };
-        let mut cases = Vec::new();
+        // Sources take turns (only those with data: GPS is KITTI 00's);
+        // every other round of turns has B reversed.
+        let sources: Vec<Source> = [Source::Gt, Source::Mono, Source::Gps]
+            .into_iter()
+            .filter(|s| prepared.iter().any(|p| p.has(*s)))
+            .collect();
+        let (mut cases, mut unattainable) = (Vec::new(), Vec::new());
         let mut draws = 0;
         while cases.len() < opts.cases && draws < 50 * opts.cases.max(1) {
             draws += 1;
-            // Sources take turns (GPS only where there is GPS: KITTI 00);
-            // every other round of turns has B reversed.
             let source = sources[cases.len() % sources.len()];
             let reversed = (cases.len() / sources.len()) % 2 == 1;
-            let p = match (source, with_gps.first()) {
-                (Source::Gps, Some(p)) => *p,
-                _ => &prepared[rng.random_range(0..prepared.len())],
-            };
-            if let Some(c) = merge::positive_case(&mut rng, p, source, reversed, &spec) {
-                cases.push(c);
-                bar.inc(1);
+            let having: Vec<&Prepared> = prepared.iter().filter(|p| p.has(source)).collect();
+            let p = having[rng.random_range(0..having.len())];
+            match merge::positive_case(&mut rng, p, source, reversed, &spec) {
+                Some(c) if c.oracle_correct => {
+                    cases.push(c);
+                    bar.inc(1);
+                }
+                Some(c) => unattainable.push(c),
+                None => {}
             }
         }
         let mut negatives = Vec::new();
@@ -182,13 +194,16 @@ pub fn run(opts: &Options) -> Result<Report> {
                 bar.inc(1);
             }
         }
-        report.set_merge(cases, negatives, spec);
+        report.set_merge(cases, negatives, unattainable, spec);
     }
     if do_loops {
         let drift = drift::DriftModel::strong();
         let mut runs = Vec::new();
         for p in &prepared {
             for source in [Source::Gt, Source::Mono, Source::Drift] {
+                if !p.has(source) {
+                    continue;
+                }
                 for k in 0..opts.loop_seeds {
                     // One seed per (sequence, source, k): reruns repeat.
                     let seed = opts.seed.wrapping_mul(1000).wrapping_add(k)

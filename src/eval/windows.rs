@@ -114,9 +114,9 @@ pub fn overlapping_window(
 /// Windows for a revisit case: B is a later pass over at least
 /// `spec.overlap.0` of the road of an event (`revisits[i]` is the earlier
 /// frame that frame `i` revisits), extended on one or both sides; A is the
-/// earlier pass with margins, at least `spec.a_len.0` long. `None` when the
-/// event is too short, its earlier counterpart is not one stretch of road,
-/// or A and B would share frames.
+/// earlier pass with margins, `spec.a_len` long. `None` when the event is
+/// too short, its earlier counterpart is not one stretch of road (or makes
+/// A too long), or A and B would share frames.
 pub fn revisit_windows(
     rng: &mut impl Rng,
     arc: &[f64],
@@ -145,6 +145,9 @@ pub fn revisit_windows(
         a1 += pad;
     }
     let a = window_at(arc, a0, a1);
+    if window_length(arc, a) > spec.a_len.1 {
+        return None;
+    }
     let (before, after) = random_sides(rng);
     let mut extra = |on: bool| {
         if on {
@@ -222,7 +225,7 @@ mod tests {
             let (a, b) =
                 revisit_windows(&mut rng, &arc, &event, &revisits, &WindowSpec::default()).unwrap();
             assert!(a[1] < b[0]);
-            assert!(window_length(&arc, a) >= 399.0);
+            assert!((399.0..=1500.0).contains(&window_length(&arc, a)));
             // The common road: B's frames whose earlier frame lies in A.
             let common = (b[0]..=b[1])
                 .filter(|i| revisits[*i].is_some_and(|j| (a[0]..=a[1]).contains(&j)))

@@ -1,0 +1,72 @@
+//! Batch speed on this machine: `loops` on KITTI 00 (4541 poses) end to end,
+//! `match` of two 5000-pose paths, and, side by side, the FFT ZNCC against
+//! the direct one on the same signature.
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::{Rotation3, Vector3};
+use turnprint::io::{read_trajectory, Format};
+use turnprint::matching::zncc::zncc_direct;
+use turnprint::matching::Correlator;
+use turnprint::pipeline::{find_loops, match_paths, Config, PreparedPath};
+use turnprint::Trajectory;
+
+fn kitti(name: &str) -> Trajectory {
+    read_trajectory(format!("tests/data/{name}").as_ref(), Format::Auto).expect("fixture")
+}
+
+/// 5000 poses: KITTI 02 (4661 poses) continued by KITTI 00's first 339.
+fn five_thousand() -> Trajectory {
+    let mut t = kitti("02.txt");
+    let tail = kitti("00.txt");
+    let offset = t.poses.last().unwrap().position - tail.poses[0].position;
+    t.poses.extend(
+        tail.poses[..339]
+            .iter()
+            .map(|p| turnprint::Pose::at(p.position + offset)),
+    );
+    t
+}
+
+fn bench_loops(c: &mut Criterion) {
+    let a = kitti("00.txt");
+    let config = Config::for_loops();
+    c.bench_function("loops KITTI 00 (4541 poses, end to end)", |b| {
+        b.iter(|| find_loops(black_box(&a), &config).unwrap())
+    });
+}
+
+fn bench_match(c: &mut Criterion) {
+    let a = five_thousand();
+    let r = Rotation3::from_euler_angles(0.4, -0.9, 2.2);
+    let mut pts: Vec<Vector3<f64>> = a
+        .positions()
+        .iter()
+        .map(|p| 0.07 * (r * p) + Vector3::new(3.0, 1.0, -2.0))
+        .collect();
+    pts.reverse();
+    let b = Trajectory::from_positions("b", &pts);
+    assert_eq!((a.len(), b.len()), (5000, 5000));
+    let config = Config::for_matching();
+    c.bench_function("match 5000 x 5000 poses (end to end)", |bch| {
+        bch.iter(|| match_paths(black_box(&a), black_box(&b), &config).unwrap())
+    });
+}
+
+fn bench_zncc(c: &mut Criterion) {
+    let a = kitti("00.txt");
+    let p = PreparedPath::new(&a, &Config::default()).unwrap();
+    let sig = &p.signature.value;
+    let query = &sig[200..400];
+    let mut group = c.benchmark_group("ZNCC of a 200-sample query against KITTI 00's signature");
+    let mut correlator = Correlator::new(sig, 400);
+    group.bench_function("FFT", |b| b.iter(|| correlator.scores(black_box(query))));
+    group.bench_function("direct", |b| {
+        b.iter(|| zncc_direct(black_box(sig), black_box(query)))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_loops, bench_match, bench_zncc);
+criterion_main!(benches);

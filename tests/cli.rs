@@ -1,0 +1,233 @@
+//! The command line as a user meets it: the JSON contract of `cli.md` on
+//! real data, and bad input ending in one clear line on stderr, a non-zero
+//! exit and no panic.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn turnprint(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_turnprint"))
+        .args(args)
+        .output()
+        .expect("turnprint runs")
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("temp file");
+    path
+}
+
+/// Exit non-zero, one line on stderr naming the file (and line when given),
+/// no panic message.
+fn assert_clean_error(out: &Output, file: &Path, line: Option<usize>) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "should fail: {stderr}");
+    assert_ne!(out.status.code(), Some(101), "panicked: {stderr}");
+    assert!(!stderr.contains("panicked"), "panicked: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+    let name = file.file_name().unwrap().to_string_lossy();
+    assert!(stderr.contains(&*name), "names the file: {stderr}");
+    if let Some(line) = line {
+        assert!(
+            stderr.contains(&format!(":{line}:")),
+            "names line {line}: {stderr}"
+        );
+    }
+}
+
+fn straight_then_turns(n: usize) -> String {
+    // A real-looking planar path: KITTI 06's first poses, as xyz.
+    let kitti = std::fs::read_to_string("tests/data/06.txt").unwrap();
+    kitti
+        .lines()
+        .take(n)
+        .map(|l| {
+            let v: Vec<&str> = l.split_whitespace().collect();
+            format!("{} {} {}\n", v[3], v[7], v[11])
+        })
+        .collect()
+}
+
+#[test]
+fn empty_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = write(dir.path(), "empty.xyz", "");
+    for cmd in [vec!["loops"], vec!["match"]] {
+        let mut args: Vec<&str> = cmd.clone();
+        args.push(a.to_str().unwrap());
+        if cmd[0] == "match" {
+            args.push("tests/data/06.txt");
+        }
+        assert_clean_error(&turnprint(&args), &a, None);
+    }
+}
+
+#[test]
+fn too_few_poses() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = write(dir.path(), "short.xyz", "0 0 0\n1 0 0\n");
+    assert_clean_error(
+        &turnprint(&["loops", a.to_str().unwrap(), "--json"]),
+        &a,
+        None,
+    );
+}
+
+#[test]
+fn nan_and_inf_name_their_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = straight_then_turns(50);
+    text.push_str("1 nan 2\n");
+    let a = write(dir.path(), "nan.xyz", &text);
+    assert_clean_error(&turnprint(&["loops", a.to_str().unwrap()]), &a, Some(51));
+    let b = write(dir.path(), "inf.xyz", "0 0 0\n1 0 inf\n2 0 0\n3 1 0\n");
+    assert_clean_error(
+        &turnprint(&["match", "tests/data/06.txt", b.to_str().unwrap()]),
+        &b,
+        Some(2),
+    );
+}
+
+#[test]
+fn wrong_column_count_names_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = std::fs::read_to_string("tests/data/06.txt")
+        .unwrap()
+        .lines()
+        .take(20)
+        .collect::<Vec<_>>()
+        .join("\n");
+    text.push_str("\n1 2 3 4 5\n");
+    let a = write(dir.path(), "cols.txt", &text);
+    assert_clean_error(
+        &turnprint(&["loops", a.to_str().unwrap(), "--format", "kitti"]),
+        &a,
+        Some(21),
+    );
+}
+
+#[test]
+fn stationary_path_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = write(dir.path(), "still.xyz", &"3 4 5\n".repeat(200));
+    assert_clean_error(&turnprint(&["loops", a.to_str().unwrap()]), &a, None);
+}
+
+#[test]
+fn duplicate_and_stationary_poses_inside_a_path_are_harmless() {
+    // KITTI 06 with every pose written three times and a long stop.
+    let dir = tempfile::tempdir().unwrap();
+    let base = straight_then_turns(1101);
+    let mut text = String::new();
+    for (i, line) in base.lines().enumerate() {
+        let copies = if i == 500 { 600 } else { 3 };
+        for _ in 0..copies {
+            text.push_str(line);
+            text.push('\n');
+        }
+    }
+    let a = write(dir.path(), "dups.xyz", &text);
+    let out = turnprint(&["loops", a.to_str().unwrap(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // KITTI 06 closes its loop: frames 830..1100 revisit 0..270.
+    let first = &v["loops"][0];
+    let q = first["query_range"][0].as_u64().unwrap() as usize;
+    assert!(
+        q > 3 * 700,
+        "the revisit is found in the duplicated file: {first}"
+    );
+}
+
+#[test]
+fn match_json_follows_the_contract() {
+    let out = turnprint(&[
+        "match",
+        "tests/data/00.txt",
+        "tests/data/00_orbslam2_tum.txt",
+        "--json",
+        "--top",
+        "3",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["a"]["poses"], 4541);
+    assert_eq!(v["b"]["poses"], 4541);
+    let hyps = v["hypotheses"].as_array().unwrap();
+    assert!(!hyps.is_empty() && hyps.len() <= 3);
+    let h = &hyps[0];
+    for key in [
+        "rank",
+        "score",
+        "zncc",
+        "reversed",
+        "a_range",
+        "b_range",
+        "scale",
+        "rotation",
+        "translation",
+        "rmse",
+    ] {
+        assert!(h.get(key).is_some(), "missing {key}");
+    }
+    // Monocular ORB-SLAM2 of KITTI 00 is 10-27x smaller than the truth.
+    let scale = h["scale"].as_f64().unwrap();
+    assert!((5.0..40.0).contains(&scale), "scale {scale}");
+    let s: Vec<f64> = hyps.iter().map(|h| h["score"].as_f64().unwrap()).collect();
+    assert!(s.windows(2).all(|w| w[0] >= w[1]) && s.iter().all(|x| (0.0..=1.0).contains(x)));
+    // A proper rotation.
+    let r: Vec<Vec<f64>> = serde_json::from_value(h["rotation"].clone()).unwrap();
+    let m = nalgebra::Matrix3::from_fn(|i, j| r[i][j]);
+    assert!((m.determinant() - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn loops_json_follows_the_contract() {
+    let out = turnprint(&["loops", "tests/data/00.txt", "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["poses"], 4541);
+    let loops = v["loops"].as_array().unwrap();
+    assert!(!loops.is_empty() && loops.len() <= 10);
+    for l in loops {
+        let (q, m) = (&l["query_range"], &l["match_range"]);
+        // The query is the later part, never overlapping its match.
+        assert!(q[0].as_u64() > m[1].as_u64(), "{l}");
+    }
+}
+
+#[test]
+fn merge_writes_tum_and_a_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_tum = dir.path().join("merged.tum");
+    let fig = dir.path().join("merged.svg");
+    let out = turnprint(&[
+        "merge",
+        "tests/data/00.txt",
+        "tests/data/00_orbslam2_tum.txt",
+        "-o",
+        out_tum.to_str().unwrap(),
+        "--plot",
+        fig.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let merged = turnprint::io::read_trajectory(&out_tum, turnprint::io::Format::Tum).unwrap();
+    assert_eq!(merged.len(), 2 * 4541);
+    // B lands on A: its first pose near A's first pose.
+    let d = (merged.poses[4541].position - merged.poses[0].position).norm();
+    assert!(d < 10.0, "B's start is {d:.1} m from A's");
+    assert!(std::fs::read_to_string(&fig).unwrap().contains("<svg"));
+}

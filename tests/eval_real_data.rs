@@ -1,0 +1,83 @@
+//! The evaluation's ground truth on the real KITTI copies in tests/data:
+//! the GPS aligns with the ground truth, revisit events are found where
+//! KITTI 00 closes its loops, and the naive baseline, on undrifted ground
+//! truth under a random similarity, finds every event (so the harness can
+//! score a correct detector as correct).
+#![cfg(feature = "eval")]
+
+use std::path::Path;
+
+use rand::{rngs::StdRng, SeedableRng};
+use turnprint::eval::baseline::Naive;
+use turnprint::eval::checks::loop_correct;
+use turnprint::eval::data::load_sequence;
+use turnprint::eval::drift::DriftModel;
+use turnprint::eval::similarity::random_similarity;
+use turnprint::eval::Prepared;
+
+fn kitti00() -> Prepared {
+    Prepared::new(load_sequence(Path::new("tests/data"), "00").expect("tests/data/00.txt"))
+}
+
+#[test]
+fn kitti00_gps_aligns_with_ground_truth() {
+    let p = kitti00();
+    let (gps, fit) = p.seq.gps.as_ref().expect("GPS of 00 in tests/data");
+    assert!(fit.rmse_m < 1.5, "{fit:?}");
+    assert!((fit.scale - 1.0).abs() < 0.01, "{fit:?}");
+    assert!(fit.rows_used >= 460, "{fit:?}");
+    // GPS rows are paired to increasing frames spanning the drive.
+    assert!(gps.frames.windows(2).all(|w| w[1] > w[0]));
+    assert!(
+        gps.frames[0] < 30.0 && *gps.frames.last().unwrap() > 4500.0,
+        "{:?}",
+        (gps.frames[0], gps.frames.last())
+    );
+}
+
+#[test]
+fn kitti00_mono_pairs_every_frame() {
+    let p = kitti00();
+    assert_eq!(p.seq.mono.positions.len(), p.seq.gt.len());
+    assert!(p
+        .seq
+        .mono
+        .frames
+        .iter()
+        .enumerate()
+        .all(|(i, f)| *f == i as f64));
+}
+
+#[test]
+fn naive_baseline_finds_kitti00_events_on_ground_truth_only() {
+    let p = kitti00();
+    // 00 revisits the road of its first loop near frame 1560, drives a long
+    // stretch again from about frame 3270, and ends where it started.
+    assert_eq!(p.events.len(), 3, "{:?}", p.events);
+    assert!(p.events.iter().any(|e| e.last == p.seq.gt.len() - 1));
+    let mut rng = StdRng::seed_from_u64(11);
+    let sim = random_similarity(&mut rng, 500.0);
+    let input: Vec<_> = p.seq.gt.iter().map(|q| sim.apply(q)).collect();
+    let loops = Naive::default().loops(&input);
+    assert!(loops.iter().all(|l| loop_correct(l, &p.seq.gt, 10.0)));
+    for e in &p.events {
+        assert!(
+            loops
+                .iter()
+                .any(|l| l.query[0] <= e.last && l.query[1] >= e.first),
+            "event {e:?} missed"
+        );
+    }
+    // With strong drift the same search loses most of them.
+    let drifted = DriftModel::strong().apply(&p.seq.gt, &mut rng);
+    let loops = Naive::default().loops(&drifted);
+    let correct = loops
+        .iter()
+        .filter(|l| loop_correct(l, &p.seq.gt, 10.0))
+        .count();
+    assert!(
+        correct * 2 <= loops.len().max(1),
+        "{correct} of {}",
+        loops.len()
+    );
+}
