@@ -86,6 +86,20 @@ impl History {
             .collect()
     }
 
+    /// The keyframe nearest to `pose` within `range`: (id, pose index).
+    pub fn keyframe_near(&self, pose: usize, range: [usize; 2]) -> Option<(u64, usize)> {
+        let lo = self
+            .keyframes
+            .partition_point(|k| (k.0 as usize) < range[0]);
+        let hi = self
+            .keyframes
+            .partition_point(|k| (k.0 as usize) <= range[1]);
+        self.keyframes[lo..hi]
+            .iter()
+            .min_by_key(|k| (k.0 as usize).abs_diff(pose))
+            .map(|k| (k.1, k.0 as usize))
+    }
+
     /// Track samples `[g0, g1]` (clamped) as a prepared path.
     #[allow(clippy::too_many_arguments)]
     pub fn window(

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use crossbeam::channel::{Receiver, Sender};
 use serde::Serialize;
 
-use super::events::CandidateEvent;
+use super::events::{CandidateEvent, KeyframePair};
 use super::frontend::Outbox;
 use super::history::History;
 use super::search::{proximity_seed, verify_all, Frame, Searcher};
@@ -191,6 +191,7 @@ impl WorkerState {
             events.push(CandidateEvent {
                 id: self.next_id,
                 at_pose,
+                keyframes: keyframe_pair(h, &hy),
                 query_keyframes: h.keyframes_in(hy.a_range, 8),
                 match_keyframes: h.keyframes_in(hy.b_range, 8),
                 hypothesis: hy,
@@ -221,6 +222,25 @@ impl WorkerState {
         self.stats.sig_samples = h.sig_value.len() as u64;
         self.stats
     }
+}
+
+/// The keyframe pair to verify a hypothesis with: the query keyframe
+/// nearest the middle correspondence, and the match keyframe nearest the
+/// pose that corresponds to it.
+fn keyframe_pair(h: &History, hy: &crate::Hypothesis) -> Option<KeyframePair> {
+    let mid = hy.correspondences.get(hy.correspondences.len() / 2)?;
+    let (query_keyframe, query_pose) = h.keyframe_near(mid.0, hy.a_range)?;
+    let corr = hy
+        .correspondences
+        .iter()
+        .min_by_key(|c| c.0.abs_diff(query_pose))?;
+    let (match_keyframe, match_pose) = h.keyframe_near(corr.1, hy.b_range)?;
+    Some(KeyframePair {
+        query_keyframe,
+        query_pose,
+        match_keyframe,
+        match_pose,
+    })
 }
 
 fn run(config: OnlineConfig, rx: Receiver<Message>, tx: Sender<CandidateEvent>) -> WorkerStats {
