@@ -3,6 +3,7 @@
 
 use crate::align::grow::GrowConfig;
 use crate::matching::candidates::QueryConfig;
+use crate::matching::turns::TurnConfig;
 use crate::score::{DriftPrior, ScoreConfig};
 use crate::segments::SegmentConfig;
 use crate::signature::SignatureConfig;
@@ -28,6 +29,8 @@ pub struct Config {
     pub ransac_iterations: usize,
     /// Grow/refit settings.
     pub grow: GrowConfig,
+    /// Turn-pair proposals (independent of K alignment).
+    pub turns: TurnConfig,
     /// Candidates verified geometrically (the strongest first).
     pub max_candidates: usize,
     // --- scoring and ranking.
@@ -51,6 +54,7 @@ impl Default for Config {
             ransac_threshold: 0.04,
             ransac_iterations: 64,
             grow: GrowConfig::default(),
+            turns: TurnConfig::default(),
             max_candidates: 60,
             score: ScoreConfig::default(),
             drift_prior: None,

@@ -21,6 +21,7 @@ pub use verify::Verified;
 
 use crate::geometry::Similarity2;
 use crate::matching::candidates::{queries, search};
+use crate::matching::turns::{propose, turns};
 use crate::matching::Correlator;
 use crate::score::{loop_score, score};
 use crate::track::Track;
@@ -65,19 +66,72 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
         .filter_map(|c| c.swapped(sb.len())),
     );
     candidates.sort_by(|x, y| y.strength.total_cmp(&x.strength));
-    // Geometry decides, strongest candidates first.
+    // Turn pairs: proposals that do not depend on aligning K.
+    let tc = &config.turns;
+    let proposals = propose(
+        &turns(&pa.track, &pa.signature, tc),
+        &turns(&pb.track, &pb.signature, tc),
+        tc,
+    );
+    // Geometry decides, on every core: the strongest ZNCC candidates and
+    // the turn-pair proposals, verified the same way.
     let xy = [pb.points(false), pb.points(true)];
-    let mut hypotheses = Vec::new();
-    for cand in candidates.iter().take(config.max_candidates) {
-        let mirrored = cand.orientation.mirrored;
-        let Some((v, s)) =
+    let jobs: Vec<Job> = candidates
+        .iter()
+        .take(config.max_candidates)
+        .map(Job::Zncc)
+        .chain(proposals.iter().map(Job::Turns))
+        .collect();
+    let hypotheses = parallel_map(&jobs, |job| match job {
+        Job::Zncc(cand) => {
+            let mirrored = cand.orientation.mirrored;
             verify::verify_best(pa, pb, &xy[mirrored as usize], cand, config, &|_, _| true)
-        else {
-            continue;
-        };
-        hypotheses.push(to_hypothesis(pa, pb, &v, s, false));
-    }
+                .map(|(v, s)| to_hypothesis(pa, pb, &v, s, false))
+        }
+        Job::Turns(p) => {
+            let seed = [p.seed[0], p.seed[1].min(pb.track.len() - 1)];
+            verify::verify_seeded(
+                pa,
+                pb,
+                &xy[p.mirrored as usize],
+                seed,
+                p.a_T_b,
+                p.mirrored,
+                config,
+                &|_, _| true,
+            )
+            .map(|v| to_hypothesis(pa, pb, &v, score(&v.evidence, &config.score), false))
+        }
+    });
     rank::rank(hypotheses, config.top_k)
+}
+
+/// One verification to run.
+enum Job<'a> {
+    Zncc(&'a crate::matching::Candidate),
+    Turns(&'a crate::matching::turns::TurnProposal),
+}
+
+/// `f` over `items` on every available core (scoped threads; results in
+/// order, `None`s dropped).
+fn parallel_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> Option<R> + Sync) -> Vec<R> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(items.len().max(1));
+    if threads <= 1 {
+        return items.iter().filter_map(&f).collect();
+    }
+    let chunk = items.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = items
+            .chunks(chunk)
+            .map(|part| scope.spawn(|| part.iter().filter_map(&f).collect::<Vec<R>>()))
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_default())
+            .collect()
+    })
 }
 
 /// Places that path A revisits. `a_range` is the later (query) part,

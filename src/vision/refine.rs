@@ -115,7 +115,7 @@ pub fn refine_pose(
     residuals(&R, &t, corr, idx, &mut r0);
     let mut cost: f64 = r0.iter().map(|v| v * v).sum();
     let mut lambda = 1e-3;
-    for _ in 0..100 {
+    for _ in 0..40 {
         let (jtj, jtr) = normal_equations(&R, &t, corr, idx, &r0, &mut scratch);
         let mut improved = false;
         for _ in 0..5 {

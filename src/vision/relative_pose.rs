@@ -19,17 +19,24 @@
 //!   two-point RANSAC explains as many matches; the pose is then reported with
 //!   a zero translation.
 //!
-//! Acceptance needs, besides a consistent model: at least `min_inliers`
-//! inliers, an inlier ratio of at least `min_inlier_ratio`, and for a general
-//! pose a well-conditioned fit: the standard deviation of the rotation from
-//! the refinement's information matrix (residuals in units of their noise)
-//! must stay below `max_rotation_std` radians, so degenerate configurations
-//! (planar scenes, where a family of essential matrices fits) are rejected;
-//! and most inliers with measurable parallax must lie in front of both
-//! cameras; and a homography may not take more than `max_homography_share`
-//! of the model-selection score (ORB-SLAM's test: a planar scene leaves a
-//! twofold pose ambiguity that the covariance does not reveal). A translation direction less certain than `max_translation_std`
-//! is not reported (rotation only).
+//! Acceptance needs, besides a consistent model (defaults in brackets):
+//!
+//! * at least `min_inliers` inliers [30] and an inlier ratio of at least
+//!   `min_inlier_ratio` [0.25] of the matches;
+//! * a unique optimum: no second local optimum more than `rival_rotation`
+//!   [5°] away whose MSAC cost is within `rival_cost_margin` [2 χ²₂(95 %)]
+//!   of the best (near-planar scenes and narrow overlaps leave two poses
+//!   that fit equally well, which no local covariance shows);
+//! * a well-conditioned fit: rotation standard deviation from the
+//!   refinement's information matrix below `max_rotation_std` [5°];
+//! * a homography taking at most `max_homography_share` [0.55] of the
+//!   ORB-SLAM model-selection score (planar scene);
+//! * at least `min_cheirality` [80 %] of the inliers with measurable parallax
+//!   in front of both cameras.
+//!
+//! A translation direction less certain than `max_translation_std` [10°] is
+//! not reported (rotation only). Inliers: Sampson error below
+//! `threshold_sigmas` [2] σ.
 
 #![allow(non_snake_case)]
 
@@ -41,6 +48,9 @@ pub use super::refine::{epipolar_rms, refine_pose, sampson_error};
 /// RANSAC always draws at least this many samples: adaptive stopping alone
 /// ends too early when a near-degenerate sample (all far points) fits many.
 pub(super) const MIN_ITERATIONS: usize = 50;
+
+/// The 95 % bound of a two-dimensional chi-square, the unit of cost margins.
+const CHI2_GAMMA: f64 = 5.99;
 
 /// One matched pair of bearings with their angular noise (radians).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,6 +83,11 @@ pub struct PoseParams {
     /// Largest standard deviation (radians) of the translation direction for
     /// it to be reported; beyond it the pose is reported as rotation only.
     pub max_translation_std: f64,
+    /// A second local optimum at least this far in rotation (radians) ...
+    pub rival_rotation: f64,
+    /// ... whose MSAC cost (sum of squared normalised errors, truncated) is
+    /// within this margin of the best makes the pose ambiguous.
+    pub rival_cost_margin: f64,
     /// Rejected as planar (ambiguous pose) when a homography takes more than
     /// this share of the model-selection score (ORB-SLAM uses 0.45).
     pub max_homography_share: f64,
@@ -93,6 +108,8 @@ impl Default for PoseParams {
             min_inlier_ratio: 0.25,
             max_rotation_std: 5f64.to_radians(),
             max_translation_std: 10f64.to_radians(),
+            rival_rotation: 5f64.to_radians(),
+            rival_cost_margin: 2.0 * CHI2_GAMMA,
             max_homography_share: 0.55,
             min_cheirality: 0.8,
             rotation_only_fraction: 0.9,
@@ -330,6 +347,8 @@ fn decompose(
 
 /// Number of successive best RANSAC models that are locally optimised.
 const LOCAL_STARTS: usize = 4;
+/// Number of distinct cheap models kept to look for a rival optimum.
+const RIVAL_POOL: usize = 6;
 
 /// A general pose hypothesis after local optimisation.
 struct Refined {
@@ -389,10 +408,12 @@ fn ransac_essential(
     corr: &[Correspondence],
     p: &PoseParams,
     rng: &mut SplitMix,
-) -> Option<Refined> {
+) -> Option<(Refined, Option<Refined>)> {
     let n = corr.len();
     let mut best_cost = f64::INFINITY;
     let mut starts: Vec<(Matrix3<f64>, Vec<usize>)> = Vec::new();
+    // The cheapest mutually distinct models, to look for a rival optimum.
+    let mut pool: Vec<(f64, Matrix3<f64>, Vec<usize>)> = Vec::new();
     let (mut sample, mut inl) = (Vec::with_capacity(8), Vec::with_capacity(n));
     let mut iterations = p.max_iterations;
     let mut it = 0;
@@ -412,12 +433,61 @@ fn ransac_essential(
             iterations = needed_iterations(inl.len(), n, 8, p.confidence, p.max_iterations)
                 .max(MIN_ITERATIONS);
         }
+        let worst = pool.iter().map(|m| m.0).fold(f64::NEG_INFINITY, f64::max);
+        if pool.len() < RIVAL_POOL || cost < worst {
+            let near = pool
+                .iter()
+                .position(|m| (m.1 - E).norm().min((m.1 + E).norm()) < 0.3);
+            match near {
+                Some(k) if cost < pool[k].0 => pool[k] = (cost, E, inl.clone()),
+                Some(_) => {}
+                None => {
+                    if pool.len() == RIVAL_POOL {
+                        let k = pool
+                            .iter()
+                            .enumerate()
+                            .max_by(|a, b| a.1 .0.total_cmp(&b.1 .0))
+                            .map_or(0, |(k, _)| k);
+                        pool.swap_remove(k);
+                    }
+                    pool.push((cost, E, inl.clone()));
+                }
+            }
+        }
     }
-    starts
+    // Refine every start; the lowest cost wins, and the best optimum whose
+    // rotation differs clearly from the winner's is its rival.
+    // Near-identical starts (same E up to sign) converge alike: optimise one.
+    let mut distinct: Vec<(&Matrix3<f64>, &Vec<usize>)> = Vec::new();
+    for (E, inliers) in starts
         .iter()
-        .filter(|(_, inliers)| inliers.len() >= 8)
+        .rev()
+        .map(|(E, i)| (E, i))
+        .chain(pool.iter().map(|(_, E, i)| (E, i)))
+    {
+        if inliers.len() >= 8
+            && distinct
+                .iter()
+                .all(|(F, _)| (*F - E).norm().min((*F + E).norm()) >= 0.3)
+        {
+            distinct.push((E, inliers));
+        }
+    }
+    let mut refined: Vec<Refined> = distinct
+        .into_iter()
         .filter_map(|(E, inliers)| local_optimise(E, corr, inliers, p))
-        .min_by(|a, b| a.cost.total_cmp(&b.cost))
+        .collect();
+    let k = refined
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.cost.total_cmp(&b.1.cost))
+        .map(|(k, _)| k)?;
+    let best = refined.swap_remove(k);
+    let rival = refined
+        .into_iter()
+        .filter(|r| (r.R.inverse() * best.R).angle() > p.rival_rotation)
+        .min_by(|a, b| a.cost.total_cmp(&b.cost));
+    Some((best, rival))
 }
 
 /// Two-point RANSAC for a pure rotation, refitted on its inliers.
@@ -473,7 +543,10 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
         };
     }
     let mut rng = SplitMix(seed ^ 0x5DEE_CE66_D1CE_4E5B);
-    let general = ransac_essential(corr, p, &mut rng);
+    let (general, rival) = match ransac_essential(corr, p, &mut rng) {
+        Some((best, rival)) => (Some(best), rival),
+        None => (None, None),
+    };
     let (R_only, r_inliers) = ransac_rotation(corr, p, &mut rng);
     let e_inliers = general.as_ref().map_or(Vec::new(), |g| g.inliers.clone());
     let best_count = e_inliers.len().max(r_inliers.len());
@@ -502,7 +575,11 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
         }
     }
     let Some(Refined {
-        R, t, information, ..
+        R,
+        t,
+        information,
+        cost,
+        ..
     }) = general
     else {
         return PoseOutcome::Rejected {
@@ -515,6 +592,22 @@ pub fn estimate_relative_pose(corr: &[Correspondence], p: &PoseParams, seed: u64
             reason: format!("{} essential inliers of {n} matches", e_inliers.len()),
             inliers: e_inliers.len(),
         };
+    }
+    // Two clearly different poses that fit about equally well: the matches
+    // do not decide (near-planar or narrow overlap), whatever the local
+    // covariance of either says.
+    if let Some(r) = &rival {
+        if r.cost - cost < p.rival_cost_margin {
+            return PoseOutcome::Rejected {
+                reason: format!(
+                    "ambiguous pose: a second pose {:.1}° away fits nearly as well (cost {:.1} vs {:.1})",
+                    (r.R.inverse() * R).angle().to_degrees(),
+                    r.cost,
+                    cost
+                ),
+                inliers: e_inliers.len(),
+            };
+        }
     }
     let (rotation_std, translation_std) = pose_std(&information);
     if rotation_std.is_nan() || rotation_std > p.max_rotation_std {
