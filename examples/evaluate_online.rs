@@ -13,7 +13,9 @@
 //! Usage: `cargo run --release --example evaluate_online -- [gt|orb|drift] [SEQ...]`
 //! (data from ../shared/data). `gt` streams the ground truth, `orb` the
 //! monocular ORB-SLAM2 estimate (paired to GT frames by timestamp), `drift`
-//! the ground truth with added drift (heading random walk and scale drift).
+//! the ground truth with added drift (heading random walk and scale drift),
+//! `strong` the ground truth through the evaluation's strong drift model
+//! (`eval::drift::DriftModel::strong`, seed `SEED`, default 1).
 
 use std::path::Path;
 
@@ -34,7 +36,11 @@ fn main() {
             .map(|s| s.to_string())
             .collect()
     };
-    println!("mode {mode}");
+    let seed: u64 = std::env::var("SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
+    println!("mode {mode} (seed {seed} for strong drift)");
     let show_events = std::env::var("SCORES").is_ok();
     println!("seq  poses events detected  rate  delay_med_m delay_p90_m  cands correct share  push_p50_us push_p99_us  wall_s");
     let (mut ev_all, mut det_all, mut c_all, mut ok_all) = (0, 0, 0, 0);
@@ -50,6 +56,14 @@ fn main() {
         let (input, frames): (Vec<Vector3<f64>>, Vec<usize>) = match mode.as_str() {
             "orb" => orb_paired(seq, gt_xyz.len()),
             "drift" => (drifted(&gt_xyz), (0..gt_xyz.len()).collect()),
+            "strong" => {
+                use rand::SeedableRng;
+                let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+                (
+                    turnprint::eval::drift::DriftModel::strong().apply(&gt_xyz, &mut rng),
+                    (0..gt_xyz.len()).collect(),
+                )
+            }
             _ => (gt_xyz.clone(), (0..gt_xyz.len()).collect()),
         };
         let mut config = OnlineConfig::default();

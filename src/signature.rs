@@ -112,7 +112,7 @@ impl SignatureStream {
         if let Some(prev) = self.last {
             loop {
                 let target = self.next as f64 * self.dk;
-                if !(target <= cumulative) {
+                if target > cumulative || cumulative.is_nan() {
                     break;
                 }
                 // Crossing between samples n-1 and n, exactly as a whole-array

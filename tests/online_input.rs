@@ -207,3 +207,41 @@ fn kitti_00_revisit_is_found_while_streaming() {
     // Ids are unique and increasing.
     assert!(found.windows(2).all(|w| w[0].id < w[1].id));
 }
+
+#[test]
+fn candidates_carry_a_keyframe_pair_for_the_verifier() {
+    let points = kitti("00");
+    let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
+    let mut found = Vec::new();
+    for (i, p) in points.iter().enumerate() {
+        d.push(&PoseInput {
+            keyframe: (i % 10 == 0).then_some(1000 + i as u64),
+            ..PoseInput::at(*p)
+        });
+        found.extend(d.poll());
+    }
+    found.extend(d.finish().0);
+    assert!(!found.is_empty());
+    for c in &found {
+        let k = c.keyframes.expect("keyframes were given");
+        let h = &c.hypothesis;
+        assert_eq!(k.query_keyframe, 1000 + k.query_pose as u64);
+        assert_eq!(k.match_keyframe, 1000 + k.match_pose as u64);
+        assert!((h.a_range[0]..=h.a_range[1]).contains(&k.query_pose));
+        assert!((h.b_range[0]..=h.b_range[1]).contains(&k.match_pose));
+        // Ground truth: the two keyframes see the same place (within 15 m)
+        // whenever the candidate is a true revisit of a consistent map.
+        assert!(
+            (points[k.query_pose] - points[k.match_pose]).norm() < 15.0,
+            "{k:?}"
+        );
+        // The verifier's similarity maps the query keyframe near the match
+        // keyframe (inverse of the hypothesis).
+        #[cfg(feature = "ipc")]
+        {
+            let v = c.to_verifier().unwrap();
+            let mapped = v.scale * (v.rotation * points[k.query_pose]) + v.translation;
+            assert!((mapped - points[k.match_pose]).norm() < 15.0);
+        }
+    }
+}

@@ -69,10 +69,10 @@ fn stream_with_batch_parameters_is_the_batch() {
 /// With parameters from the warm-up prefix (first 200+ poses) instead of
 /// the whole path: total turning within 3 %, segment count within 15 %, and
 /// all but 20 % (at least one may miss) of the batch boundaries have a
-/// streamed boundary within 3 % of the path length. Measured (KITTI GT):
-/// 00 K 46.74/46.60 rad, 40/41 boundaries, 41 matched; 02 42.76/42.76,
-/// 33/31, 30; 05 19.20/19.16, 18/18, 16; 08 35.29/35.57, 30/32, 31;
-/// 06 6.56/6.56, 4/4, 3.
+/// streamed boundary within 3 % of the path length. Measured (KITTI GT,
+/// stream/batch): 00 K 46.74/46.60 rad, 42/41 boundaries, 41 matched; 02
+/// 42.76/42.76, 33/33, 33; 05 19.20/19.16, 18/17, 17; 08 35.29/35.57,
+/// 31/33, 32; 06 6.56/6.56, 4/4, 3.
 #[test]
 fn stream_with_warmup_parameters_is_close_to_the_batch() {
     for name in ["00", "02", "05", "08", "06"] {

@@ -20,13 +20,51 @@ pub struct CandidateEvent {
     /// Found by the proximity probe (nearest earlier position) rather than
     /// the shape search.
     pub proximity: bool,
+    /// The keyframe pair a verifier should compare (when keyframes were
+    /// given): see [`CandidateEvent::to_verifier`].
+    pub keyframes: Option<KeyframePair>,
     /// Keyframe ids inside the query range (at most 8, spread evenly).
     pub query_keyframes: Vec<u64>,
     /// Keyframe ids inside the match range (at most 8, spread evenly).
     pub match_keyframes: Vec<u64>,
 }
 
+/// One keyframe on each side of a candidate, with their pose indices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct KeyframePair {
+    /// Keyframe id on the query (later) side.
+    pub query_keyframe: u64,
+    /// Its pose index.
+    pub query_pose: usize,
+    /// Keyframe id on the match (earlier) side.
+    pub match_keyframe: u64,
+    /// Its pose index.
+    pub match_pose: usize,
+}
+
 impl CandidateEvent {
+    /// The candidate as the verifier client takes it
+    /// (`p_match = s R p_query + t`, the inverse of the hypothesis, which
+    /// maps match points onto the query part). `None` without keyframes.
+    #[cfg(feature = "ipc")]
+    #[allow(non_snake_case)]
+    pub fn to_verifier(&self) -> Option<crate::ipc::client::Candidate> {
+        let k = self.keyframes?;
+        let h = &self.hypothesis;
+        let inv_scale = 1.0 / h.scale;
+        let match_R_query = h.rotation.transpose();
+        Some(crate::ipc::client::Candidate {
+            query_keyframe: k.query_keyframe,
+            match_keyframe: k.match_keyframe,
+            query_pose: k.query_pose as u64,
+            match_pose: k.match_pose as u64,
+            scale: inv_scale,
+            rotation: match_R_query,
+            translation: -(match_R_query * h.translation) * inv_scale,
+            score: h.score,
+        })
+    }
+
     /// The JSON Lines form of `cli.md` (`stream`): a `loops` entry plus
     /// `event`, `at_pose` and `id`.
     pub fn to_json(&self) -> Value {
@@ -47,6 +85,7 @@ impl CandidateEvent {
             "rmse": h.rmse,
             "turning_deg": h.turning_deg,
             "source": if self.proximity { "proximity" } else { "shape" },
+            "keyframes": self.keyframes,
             "query_keyframes": self.query_keyframes,
             "match_keyframes": self.match_keyframes,
         })

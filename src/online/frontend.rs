@@ -284,7 +284,7 @@ impl Frontend {
 /// Does the prefix span a plane (not just a line)?
 fn spans_plane(buf: &[(usize, Vector3<f64>)], ratio: f64) -> bool {
     // Checked every 32 poses: the eigen decomposition is not free.
-    if buf.len() % 32 != 0 {
+    if !buf.len().is_multiple_of(32) {
         return false;
     }
     let n = buf.len() as f64;

@@ -86,6 +86,20 @@ impl History {
             .collect()
     }
 
+    /// The keyframe nearest to `pose` within `range`: (id, pose index).
+    pub fn keyframe_near(&self, pose: usize, range: [usize; 2]) -> Option<(u64, usize)> {
+        let lo = self
+            .keyframes
+            .partition_point(|k| (k.0 as usize) < range[0]);
+        let hi = self
+            .keyframes
+            .partition_point(|k| (k.0 as usize) <= range[1]);
+        self.keyframes[lo..hi]
+            .iter()
+            .min_by_key(|k| (k.0 as usize).abs_diff(pose))
+            .map(|k| (k.1, k.0 as usize))
+    }
+
     /// Track samples `[g0, g1]` (clamped) as a prepared path.
     #[allow(clippy::too_many_arguments)]
     pub fn window(
@@ -186,7 +200,7 @@ impl SpatialIndex {
     pub fn update(&mut self, h: &History) {
         while self.indexed < h.xy.len() {
             let i = self.indexed;
-            if i % self.every == 0 {
+            if i.is_multiple_of(self.every) {
                 let k = self.key(&h.point(i));
                 self.cells.entry(k).or_default().push(i as u32);
             }

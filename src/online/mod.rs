@@ -12,7 +12,8 @@
 //! - [`worker`]: the thread, the bounded queue and its overflow policy;
 //! - [`events`]: candidates and verifier outcomes;
 //! - [`detector`]: the public type;
-//! - [`cli`]: `turnprint stream`.
+//! - [`cli`]: `turnprint stream`;
+//! - [`synthetic`]: a synthetic city drive for long-run figures.
 
 pub mod cli;
 pub mod config;
@@ -23,6 +24,7 @@ pub mod frontend;
 pub mod guard;
 pub mod history;
 pub mod search;
+pub mod synthetic;
 pub mod worker;
 
 pub use config::{Exclusion, OnlineConfig};

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use crossbeam::channel::{Receiver, Sender};
 use serde::Serialize;
 
-use super::events::CandidateEvent;
+use super::events::{CandidateEvent, KeyframePair};
 use super::frontend::Outbox;
 use super::history::History;
 use super::search::{proximity_seed, verify_all, Frame, Searcher};
@@ -117,6 +117,13 @@ impl WorkerState {
     pub fn take(&mut self, m: Message) -> Vec<CandidateEvent> {
         self.stats.messages += 1;
         let h = &mut self.history;
+        let (ng, ns) = (m.out.grid.len(), m.out.sig.len());
+        grow(&mut h.xy, ng);
+        grow(&mut h.s, ng);
+        grow(&mut h.curvature, ng);
+        grow(&mut h.pose, ng);
+        grow(&mut h.sig_value, ns);
+        grow(&mut h.sig_grid, ns);
         for g in &m.out.grid {
             h.xy.push([g.xy.x as f32, g.xy.y as f32]);
             h.s.push(g.s);
@@ -143,11 +150,16 @@ impl WorkerState {
                 continue;
             }
             self.stats.segments += 1;
-            self.searcher.add_piece(&self.history, k, keep);
             if m.merged && i + 1 < new {
+                // Only the newest segment of a merged message is matched,
+                // and its queries need only the last `keep` pieces.
+                if i + keep >= new {
+                    self.searcher.add_piece(&self.history, k, keep);
+                }
                 self.stats.skipped += 1;
                 continue;
             }
+            self.searcher.add_piece(&self.history, k, keep);
             events.extend(self.match_newest(&m.frame, m.at_pose, true));
         }
         if new == 0 && self.config.proximity {
@@ -186,6 +198,7 @@ impl WorkerState {
             events.push(CandidateEvent {
                 id: self.next_id,
                 at_pose,
+                keyframes: keyframe_pair(h, &hy),
                 query_keyframes: h.keyframes_in(hy.a_range, 8),
                 match_keyframes: h.keyframes_in(hy.b_range, 8),
                 hypothesis: hy,
@@ -216,6 +229,34 @@ impl WorkerState {
         self.stats.sig_samples = h.sig_value.len() as u64;
         self.stats
     }
+}
+
+/// Makes room for `extra` more items, growing by an eighth at least
+/// instead of doubling: still amortised O(1) per item, but at most 12.5 %
+/// unused capacity in the history (memory per pose).
+fn grow<T>(v: &mut Vec<T>, extra: usize) {
+    if v.capacity() - v.len() < extra {
+        v.reserve_exact(extra.max(v.len() / 8));
+    }
+}
+
+/// The keyframe pair to verify a hypothesis with: the query keyframe
+/// nearest the middle correspondence, and the match keyframe nearest the
+/// pose that corresponds to it.
+fn keyframe_pair(h: &History, hy: &crate::Hypothesis) -> Option<KeyframePair> {
+    let mid = hy.correspondences.get(hy.correspondences.len() / 2)?;
+    let (query_keyframe, query_pose) = h.keyframe_near(mid.0, hy.a_range)?;
+    let corr = hy
+        .correspondences
+        .iter()
+        .min_by_key(|c| c.0.abs_diff(query_pose))?;
+    let (match_keyframe, match_pose) = h.keyframe_near(corr.1, hy.b_range)?;
+    Some(KeyframePair {
+        query_keyframe,
+        query_pose,
+        match_keyframe,
+        match_pose,
+    })
 }
 
 fn run(config: OnlineConfig, rx: Receiver<Message>, tx: Sender<CandidateEvent>) -> WorkerStats {

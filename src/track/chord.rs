@@ -122,7 +122,7 @@ impl ChordParam {
         let mut steps: Vec<f64> = points.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
         steps.sort_by(f64::total_cmp);
         let upper = steps[(steps.len() * 3) / 4];
-        if !(upper > 0.0) {
+        if upper.is_nan() || upper <= 0.0 {
             return None;
         }
         Some(STATIONARY_FRACTION * upper)

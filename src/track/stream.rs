@@ -79,7 +79,7 @@ impl GridStream {
         let reach = self.smoother.reach();
         loop {
             let ui = self.next as f64 * self.step;
-            if !(u > ui + reach) {
+            if u <= ui + reach || u.is_nan() {
                 break;
             }
             out(self.eval(ui));

@@ -1,0 +1,174 @@
+//! Speed of the online detector (EVALUATION_ONLINE.md, "Speed"):
+//!
+//! - `push`: one pose on the caller's thread over KITTI 00 (live policy,
+//!   the worker running beside it); the bench also prints the latency
+//!   histogram's p50/p99/max measured with `Instant` around each push;
+//! - `match_segment_100k`: one newly finalised segment matched against the
+//!   history of a 100 000-pose synthetic city drive (piece correlation with
+//!   the block spectra, all queries N = 2..12 both directions, and the
+//!   batch verification of the candidates);
+//! - `stream_kitti_00`: the whole of KITTI 00 pushed and finished.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use nalgebra::Vector3;
+use turnprint::io::{read_trajectory, Format};
+use turnprint::online::frontend::{Frontend, Outbox};
+use turnprint::online::search::{verify_all, Frame};
+use turnprint::online::synthetic::CityDrive;
+use turnprint::online::worker::{Message, WorkerState};
+use turnprint::online::{Detector, GuardCounts, OnlineConfig, Overflow, PoseInput};
+
+fn kitti_00() -> Vec<Vector3<f64>> {
+    read_trajectory(Path::new("tests/data/00.txt"), Format::Kitti)
+        .expect("tests/data/00.txt")
+        .positions()
+}
+
+fn quantile(v: &[f64], q: f64) -> f64 {
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+fn push(c: &mut Criterion) {
+    let points = kitti_00();
+    // Latency histogram: every push of KITTI 00, 20 runs.
+    let mut lat = Vec::with_capacity(points.len() * 20);
+    for _ in 0..20 {
+        let mut d = Detector::new(OnlineConfig::default(), Overflow::MergeLatest);
+        for p in &points {
+            let t = Instant::now();
+            d.push(&PoseInput::at(*p));
+            lat.push(t.elapsed().as_nanos() as f64);
+            std::hint::black_box(d.poll());
+        }
+        d.finish();
+    }
+    lat.sort_by(f64::total_cmp);
+    println!(
+        "push latency over KITTI 00 x20 ({} pushes): p50 {:.0} ns, p90 {:.0} ns, p99 {:.0} ns, p99.9 {:.0} ns, max {:.0} ns",
+        lat.len(),
+        quantile(&lat, 0.5),
+        quantile(&lat, 0.9),
+        quantile(&lat, 0.99),
+        quantile(&lat, 0.999),
+        lat[lat.len() - 1]
+    );
+    let mut g = c.benchmark_group("online");
+    g.throughput(Throughput::Elements(1));
+    g.bench_function("push", |b| {
+        let mut d = Detector::new(OnlineConfig::default(), Overflow::MergeLatest);
+        let mut i = 0usize;
+        // An endless path: KITTI 00 driven again and again, shifted.
+        b.iter(|| {
+            let lap = (i / points.len()) as f64;
+            let p = points[i % points.len()] + Vector3::new(0.0, 0.0, 5000.0 * lap);
+            i += 1;
+            d.push(&PoseInput::at(p))
+        });
+        d.finish();
+    });
+    g.finish();
+}
+
+/// 100 000 poses of KITTI ground truth (00, 02, 05, 06, 08 from tests/data,
+/// driven one after the other, each lap shifted by 5 km so laps do not
+/// overlap): a realistic history.
+fn kitti_100k() -> Vec<Vector3<f64>> {
+    let mut out = Vec::with_capacity(100_000);
+    let mut lap = 0.0;
+    while out.len() < 100_000 {
+        for name in ["00", "02", "05", "06", "08"] {
+            let t = read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Kitti)
+                .expect("fixture");
+            let shift = Vector3::new(5000.0 * lap, 0.0, 0.0);
+            let origin = out.last().copied().unwrap_or_else(Vector3::zeros);
+            let first = t.poses[0].position;
+            out.extend(t.positions().iter().map(|p| p - first + origin + shift));
+            lap += 1.0;
+        }
+    }
+    out.truncate(100_000);
+    out
+}
+
+fn match_segment(c: &mut Criterion) {
+    for (name, points) in [
+        ("kitti", kitti_100k()),
+        ("city", CityDrive::new(7).take(100_000).collect()),
+    ] {
+        match_segment_on(c, name, &points);
+    }
+}
+
+fn match_segment_on(c: &mut Criterion, name: &str, points: &[Vector3<f64>]) {
+    let config = OnlineConfig::default();
+    let (mut counts, mut out) = (GuardCounts::default(), Outbox::default());
+    let mut f = Frontend::Warmup(Vec::new());
+    for (i, p) in points.iter().enumerate() {
+        f.push(i, *p, &config, &mut counts, &mut out);
+    }
+    let params = *f.params().expect("warm-up done");
+    let frame = Frame {
+        plane: params.plane,
+        step: params.grid_step,
+        bandwidth: params.smoother.bandwidth,
+        poses: points.len(),
+    };
+    let mut state = WorkerState::new(config.clone());
+    // The whole history as one merged message: only its newest segment is
+    // matched (and the last pieces cached).
+    state.take(Message {
+        out,
+        at_pose: points.len() - 1,
+        frame,
+        merged: true,
+    });
+    let h = &state.history;
+    println!(
+        "{name} history: {} poses, {} track samples, {} signature samples, {} segments",
+        points.len(),
+        h.xy.len(),
+        h.sig_value.len(),
+        h.bounds.len()
+    );
+    let k = state.history.bounds.len() - 1;
+    let keep = config.pipeline.query.max_segments;
+    let mut g = c.benchmark_group("online");
+    g.measurement_time(Duration::from_secs(8));
+    g.bench_function(format!("match_segment_100k_{name}_search"), |b| {
+        b.iter(|| {
+            state.searcher.add_piece(&state.history, k, keep);
+            state.searcher.shape_candidates(&state.history, &config)
+        })
+    });
+    g.bench_function(format!("match_segment_100k_{name}_search_verify"), |b| {
+        b.iter(|| {
+            state.searcher.add_piece(&state.history, k, keep);
+            let shape = state.searcher.shape_candidates(&state.history, &config);
+            verify_all(&state.history, &frame, &shape, None, &config)
+        })
+    });
+    g.finish();
+}
+
+fn stream(c: &mut Criterion) {
+    let points = kitti_00();
+    let mut g = c.benchmark_group("online");
+    g.throughput(Throughput::Elements(points.len() as u64));
+    g.sample_size(20);
+    g.bench_function("stream_kitti_00", |b| {
+        b.iter(|| {
+            let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
+            for p in &points {
+                d.push(&PoseInput::at(*p));
+            }
+            d.finish()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, push, match_segment, stream);
+criterion_main!(benches);

@@ -1,0 +1,110 @@
+//! The history correlator (block spectra, cached per-segment pieces) gives
+//! the batch ZNCC: the raw piece correlations equal direct sums, and the
+//! online search's peaks are peaks of `zncc_direct` with the same value.
+
+use std::path::Path;
+
+use turnprint::io::{read_trajectory, Format};
+use turnprint::matching::zncc::zncc_direct;
+use turnprint::online::correlator::BlockCorrelator;
+use turnprint::pipeline::{Config, PreparedPath};
+
+fn signature(name: &str) -> (Vec<f32>, Vec<usize>) {
+    let t = read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Auto).unwrap();
+    let p = PreparedPath::new(&t, &Config::default()).unwrap();
+    (
+        p.signature.value.iter().map(|&v| v as f32).collect(),
+        p.bounds,
+    )
+}
+
+#[test]
+fn piece_correlations_equal_direct_sums_across_blocks() {
+    let (a, bounds) = signature("00");
+    // Small blocks: many block boundaries, a partial tail block, and a
+    // piece longer than a block (the direct path).
+    for block in [64, 100, 2048] {
+        let mut c = BlockCorrelator::new(block);
+        c.update(&a);
+        for w in bounds.windows(2).step_by(7) {
+            let (start, len) = (w[0], w[1] - w[0]);
+            let piece = c.piece(&a, start, len);
+            let p = &a[start..start + len];
+            let scale: f32 =
+                p.iter().map(|v| v.abs()).sum::<f32>() * a.iter().fold(0f32, |m, v| m.max(v.abs()));
+            for e in (0..a.len()).step_by(13) {
+                let f: f32 = (0..len)
+                    .filter(|j| e + j < a.len())
+                    .map(|j| p[j] * a[e + j])
+                    .sum();
+                let r: f32 = -(0..len)
+                    .filter(|&j| e >= j)
+                    .map(|j| p[j] * a[e - j])
+                    .sum::<f32>();
+                assert!(
+                    (piece.forward[e] - f).abs() <= 1e-4 * scale,
+                    "block {block} e {e}: {} vs {f}",
+                    piece.forward[e]
+                );
+                assert!(
+                    (piece.reversed[e] - r).abs() <= 1e-4 * scale,
+                    "block {block} e {e}: {} vs {r}",
+                    piece.reversed[e]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn zncc_from_pieces_matches_the_batch_correlator() {
+    let (a, bounds) = signature("00");
+    let a64: Vec<f64> = a.iter().map(|&v| v as f64).collect();
+    let mut c = BlockCorrelator::new(256);
+    c.update(&a);
+    // A query of the 4 segments ending at boundary k, rebuilt from pieces.
+    let k = bounds.len() - 5;
+    let (q0, q1) = (bounds[k - 4], bounds[k]);
+    let pieces: Vec<_> = (k - 3..=k)
+        .map(|i| c.piece(&a, bounds[i - 1], bounds[i] - bounds[i - 1]))
+        .collect();
+    let q = &a64[q0..=q1];
+    let direct = zncc_direct(&a64, q);
+    let len = q.len();
+    let mean = q.iter().sum::<f64>() / len as f64;
+    let qn = q.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
+    let mut checked = 0;
+    for d in 0..=a.len() - len {
+        // Forward: target of q0 is d; piece i starts at target d + (b - q0).
+        let raw: f64 = pieces
+            .iter()
+            .map(|p| p.forward[d + p.start - q0] as f64)
+            .sum::<f64>()
+            + a64[q1] * a64[d + len - 1];
+        let (s, sq) = c.window(d, len);
+        let var = sq / len as f64 - (s / len as f64).powi(2);
+        if var <= 1e-3 {
+            continue;
+        }
+        let z = (raw - mean * s) / ((var * len as f64).sqrt() * qn);
+        assert!(
+            (z - direct.forward[d]).abs() < 1e-3,
+            "forward {d}: {z} vs {}",
+            direct.forward[d]
+        );
+        // Reversed: target of q1 is d, of query sample b is d + q1 - b.
+        let raw: f64 = pieces
+            .iter()
+            .map(|p| p.reversed[d + q1 - p.start] as f64)
+            .sum::<f64>()
+            - a64[q1] * a64[d];
+        let z = (raw + mean * s) / ((var * len as f64).sqrt() * qn);
+        assert!(
+            (z - direct.reversed[d]).abs() < 1e-3,
+            "reversed {d}: {z} vs {}",
+            direct.reversed[d]
+        );
+        checked += 1;
+    }
+    assert!(checked > a.len() / 2);
+}
