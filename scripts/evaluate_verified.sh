@@ -14,7 +14,7 @@ mkdir -p "$out"
 for seq in 00 05 06 08; do
   for cams in pinhole pinhole,fisheye pinhole,omni fisheye,omni; do
     $bin stream "$data/kitti_orbslam2_vio/${seq}_orbslam2_tum.txt" --verify \
-      --truth "$data/kitti_gt/$seq.txt" --cameras "$cams" > "$out/${seq}_${cams/,/-}.jsonl"
+      --truth "$data/kitti_gt/$seq.txt" --cameras "$cams" --json > "$out/${seq}_${cams/,/-}.jsonl"
     tail -n 1 "$out/${seq}_${cams/,/-}.jsonl" | python3 -c "
 import json,sys; s=json.load(sys.stdin)
 print('$seq', '$cams', 'candidates', s['candidates'], 'confirmed', s['confirmed'], 'rejected', s['rejected'], 'expired', s['expired'], 'pairings', s['pairings'], 'seconds', round(s['seconds'],1))"

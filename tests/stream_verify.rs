@@ -20,6 +20,7 @@ fn every_candidate_ends_once_and_no_false_loop_is_confirmed() {
             "tests/data/06.txt",
             "--cameras",
             "pinhole,omni",
+            "--json",
         ])
         .output()
         .expect("turnprint runs");

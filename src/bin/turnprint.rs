@@ -148,7 +148,7 @@ fn main() -> ExitCode {
         ),
         Command::Stream {
             a,
-            json: _,
+            json,
             top,
             format,
             verify,
@@ -157,7 +157,7 @@ fn main() -> ExitCode {
             plot,
         } => {
             if verify {
-                run_stream_verified(&a, top, format, truth, &cameras, plot)
+                run_stream_verified(&a, top, format, truth, &cameras, plot, json)
             } else {
                 run_stream(&a, top, format)
             }
@@ -382,6 +382,7 @@ fn run_stream_verified(
     truth: Option<PathBuf>,
     cameras: &str,
     plot: Option<PathBuf>,
+    json: bool,
 ) -> Result<(), String> {
     use turnprint::sidecar::{stream_verified, CameraKind, VerifyOptions};
     let cameras = cameras
@@ -398,9 +399,60 @@ fn run_stream_verified(
         plot,
         ..VerifyOptions::default()
     };
-    let mut out = std::io::stdout().lock();
-    stream_verified(a, format, &config, &options, &mut out).map_err(|e| e.to_string())?;
+    let mut stdout = std::io::stdout().lock();
+    let mut human = HumanLines(&mut stdout, Vec::new());
+    let out: &mut dyn Write = if json { &mut stdout_json() } else { &mut human };
+    stream_verified(a, format, &config, &options, out).map_err(|e| e.to_string())?;
     Ok(())
+}
+
+/// Stdout for JSON Lines.
+#[cfg(feature = "verifier")]
+fn stdout_json() -> std::io::Stdout {
+    std::io::stdout()
+}
+
+/// Turns the JSON Lines of `stream --verify` into one readable line per
+/// decided loop (without `--json`).
+#[cfg(feature = "verifier")]
+struct HumanLines<'a, W: Write>(&'a mut W, Vec<u8>);
+
+#[cfg(feature = "verifier")]
+impl<W: Write> Write for HumanLines<'_, W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.1.extend_from_slice(buf);
+        while let Some(end) = self.1.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.1.drain(..=end).collect();
+            let Ok(v) = serde_json::from_slice::<serde_json::Value>(&line) else {
+                continue;
+            };
+            let r = |k: &str| format!("{}-{}", v[k][0], v[k][1]);
+            let text = match v["event"].as_str().unwrap_or("") {
+                "verifier" => format!("verifier sidecar {} (cameras {})", if v["ready"] == true { "ready" } else { "NOT ready: candidates will expire" }, v["cameras"]),
+                "candidate" => continue,
+                "confirmed" => format!(
+                    "CONFIRMED  loop #{:<3} poses {:>11} revisit {:>11}  {:<15} {:>4} inliers",
+                    v["id"], r("query_range"), r("match_range"), v["cameras"].as_str().unwrap_or(""), v["inliers"]
+                ),
+                "rejected" => format!(
+                    "rejected   loop #{:<3} poses {:>11} revisit {:>11}  {:<15} {}",
+                    v["id"], r("query_range"), r("match_range"), v["cameras"].as_str().unwrap_or(""), v["reason"].as_str().unwrap_or("")
+                ),
+                "expired" => format!("expired    loop #{:<3} ({})", v["id"], v["reason"].as_str().unwrap_or("")),
+                "summary" => format!(
+                    "{} candidates: {} confirmed, {} rejected, {} expired; {} keyframes rendered; {:.1} s",
+                    v["candidates"], v["confirmed"], v["rejected"], v["expired"], v["keyframes"], v["seconds"].as_f64().unwrap_or(0.0)
+                ),
+                _ => continue,
+            };
+            writeln!(self.0, "{text}")?;
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
 }
 
 #[cfg(not(feature = "verifier"))]
@@ -411,6 +463,7 @@ fn run_stream_verified(
     _: Option<PathBuf>,
     _: &str,
     _: Option<PathBuf>,
+    _: bool,
 ) -> Result<(), String> {
     Err("--verify needs the verifier: build with --features verifier".into())
 }
