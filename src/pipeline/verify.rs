@@ -22,15 +22,6 @@ pub struct Verified {
     pub evidence: Evidence,
 }
 
-/// Linear interpolation in a point list at a fractional index.
-fn lerp(xy: &[Vector2<f64>], at: f64) -> Vector2<f64> {
-    let n = xy.len();
-    let at = at.clamp(0.0, (n - 1) as f64);
-    let i = (at.floor() as usize).min(n.saturating_sub(2));
-    let f = at - i as f64;
-    xy[i] * (1.0 - f) + xy[(i + 1).min(n - 1)] * f
-}
-
 /// Verifies `cand` (query samples aligned to target samples); `query_xy` are
 /// the query track's points, already mirrored when the candidate is.
 pub fn verify(
@@ -52,7 +43,7 @@ pub fn verify(
         let a = a as usize;
         pairs.push((
             target.track.point_at(ts.grid[a]),
-            lerp(query_xy, qs.grid[b]),
+            crate::track::lerp_point(query_xy, qs.grid[b]),
         ));
         s_min = s_min.min(ts.s[a]);
         s_max = s_max.max(ts.s[a]);

@@ -123,16 +123,18 @@ impl Track {
 
     /// Smoothed position at a fractional grid index.
     pub fn point_at(&self, at: f64) -> Vector2<f64> {
-        let n = self.xy.len();
-        let at = at.clamp(0.0, (n - 1) as f64);
-        let i = (at.floor() as usize).min(n.saturating_sub(2));
-        let f = at - i as f64;
-        if i + 1 < n {
-            self.xy[i] * (1.0 - f) + self.xy[i + 1] * f
-        } else {
-            self.xy[i]
-        }
+        lerp_point(&self.xy, at)
     }
+}
+
+/// Linear interpolation in a non-empty point list at a fractional index
+/// (clamped to the list).
+pub fn lerp_point(xy: &[Vector2<f64>], at: f64) -> Vector2<f64> {
+    let n = xy.len();
+    let at = at.clamp(0.0, (n - 1) as f64);
+    let i = (at.floor() as usize).min(n.saturating_sub(2));
+    let f = at - i as f64;
+    xy[i] * (1.0 - f) + xy[(i + 1).min(n - 1)] * f
 }
 
 /// Arc length, unwrapped heading and curvature of a densely sampled curve
