@@ -34,3 +34,9 @@ pub use pipeline::{find_loops, match_paths, Config};
 pub use trajectory::{Pose, Trajectory};
 #[cfg(feature = "eval")]
 pub mod eval;
+#[cfg(feature = "ipc")]
+pub mod ipc;
+#[cfg(feature = "render")]
+pub mod render;
+#[cfg(any(feature = "render", feature = "verifier"))]
+pub mod vision;
