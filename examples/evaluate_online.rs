@@ -29,7 +29,10 @@ fn main() {
     let seqs: Vec<String> = if args.len() > 1 {
         args[1..].to_vec()
     } else {
-        ["00", "02", "05", "06", "08"].iter().map(|s| s.to_string()).collect()
+        ["00", "02", "05", "06", "08"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
     };
     println!("mode {mode}");
     let show_events = std::env::var("SCORES").is_ok();
@@ -37,7 +40,11 @@ fn main() {
     let (mut ev_all, mut det_all, mut c_all, mut ok_all) = (0, 0, 0, 0);
     let mut delays_all = Vec::new();
     for seq in &seqs {
-        let gt = read_trajectory(Path::new(&format!("{DATA}/kitti_gt/{seq}.txt")), Format::Kitti).expect("gt");
+        let gt = read_trajectory(
+            Path::new(&format!("{DATA}/kitti_gt/{seq}.txt")),
+            Format::Kitti,
+        )
+        .expect("gt");
         let gt_xyz: Vec<Vector3<f64>> = gt.positions();
         // Input poses and the GT frame of each.
         let (input, frames): (Vec<Vector3<f64>>, Vec<usize>) = match mode.as_str() {
@@ -79,7 +86,10 @@ fn main() {
                 .iter()
                 .zip(&correct)
                 .filter(|(c, ok)| {
-                    **ok && c.hypothesis.a_range[0] <= e1 && c.hypothesis.a_range[1] >= e0 && c.at_pose >= e0 && arc[c.at_pose.min(arc.len() - 1)] <= end_arc
+                    **ok && c.hypothesis.a_range[0] <= e1
+                        && c.hypothesis.a_range[1] >= e0
+                        && c.at_pose >= e0
+                        && arc[c.at_pose.min(arc.len() - 1)] <= end_arc
                 })
                 .map(|(c, _)| c.at_pose)
                 .min();
@@ -91,11 +101,26 @@ fn main() {
         let ok = correct.iter().filter(|&&b| b).count();
         if std::env::var("SCORES").is_ok() {
             for (c, ok) in cands.iter().zip(&correct) {
-                eprintln!("score {seq} {} {:.4} {} {} at {} q {:?} m {:?}", ok, c.hypothesis.score, c.proximity, c.hypothesis.reversed, c.at_pose, c.hypothesis.a_range, c.hypothesis.b_range);
+                eprintln!(
+                    "score {seq} {} {:.4} {} {} at {} q {:?} m {:?}",
+                    ok,
+                    c.hypothesis.score,
+                    c.proximity,
+                    c.hypothesis.reversed,
+                    c.at_pose,
+                    c.hypothesis.a_range,
+                    c.hypothesis.b_range
+                );
             }
         }
         delays.sort_by(f64::total_cmp);
-        let q = |v: &[f64], f: f64| if v.is_empty() { f64::NAN } else { v[((v.len() - 1) as f64 * f).round() as usize] };
+        let q = |v: &[f64], f: f64| {
+            if v.is_empty() {
+                f64::NAN
+            } else {
+                v[((v.len() - 1) as f64 * f).round() as usize]
+            }
+        };
         println!(
             "{seq}  {:5} {:6} {:8} {:5.2} {:11.1} {:11.1} {:6} {:7} {:5.2} {:11.2} {:11.2} {:7.2}",
             input.len(),
@@ -118,7 +143,13 @@ fn main() {
         delays_all.extend(delays);
     }
     delays_all.sort_by(f64::total_cmp);
-    let q = |v: &[f64], f: f64| if v.is_empty() { f64::NAN } else { v[((v.len() - 1) as f64 * f).round() as usize] };
+    let q = |v: &[f64], f: f64| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v[((v.len() - 1) as f64 * f).round() as usize]
+        }
+    };
     println!(
         "all  events {ev_all} detected {det_all} rate {:.3} delay median {:.1} m p90 {:.1} m candidates {c_all} correct {ok_all} share {:.3}",
         det_all as f64 / ev_all.max(1) as f64,
@@ -161,7 +192,9 @@ fn revisit_events(g: &[Vector3<f64>], frames: &[usize], arc: &[f64]) -> Vec<(usi
         runs.push((start, end));
         i = end + 1;
     }
-    runs.into_iter().filter(|&(a, b)| arc[b] - arc[a] >= 40.0).collect()
+    runs.into_iter()
+        .filter(|&(a, b)| arc[b] - arc[a] >= 40.0)
+        .collect()
 }
 
 /// Median GT distance from the query poses to the nearest match pose ≤ 10 m.
@@ -173,7 +206,11 @@ fn is_correct(c: &CandidateEvent, g: &[Vector3<f64>]) -> bool {
     let step = ((q1 - q0) / 50).max(1);
     let mut d: Vec<f64> = (q0..=q1)
         .step_by(step)
-        .map(|i| (m0..=m1).map(|j| (g[i] - g[j]).norm()).fold(f64::INFINITY, f64::min))
+        .map(|i| {
+            (m0..=m1)
+                .map(|j| (g[i] - g[j]).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
         .collect();
     d.sort_by(f64::total_cmp);
     !d.is_empty() && d[d.len() / 2] <= 10.0
@@ -181,7 +218,11 @@ fn is_correct(c: &CandidateEvent, g: &[Vector3<f64>]) -> bool {
 
 /// ORB-SLAM2 estimate paired to GT frames by timestamp.
 fn orb_paired(seq: &str, n_gt: usize) -> (Vec<Vector3<f64>>, Vec<usize>) {
-    let orb = read_trajectory(Path::new(&format!("{DATA}/kitti_orbslam2_vio/{seq}_orbslam2_tum.txt")), Format::Tum).expect("orb");
+    let orb = read_trajectory(
+        Path::new(&format!("{DATA}/kitti_orbslam2_vio/{seq}_orbslam2_tum.txt")),
+        Format::Tum,
+    )
+    .expect("orb");
     let times: Vec<f64> = std::fs::read_to_string(format!("{DATA}/kitti_gt/{seq}_times.txt"))
         .expect("times")
         .split_whitespace()
@@ -216,7 +257,9 @@ fn drifted(g: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
     for i in 1..g.len() {
         let d = g[i] - g[i - 1];
         let len = d.norm();
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         let u = ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0;
         yaw += u * 0.5f64.to_radians() * (len / 100.0).sqrt() * 1.7;
         scale *= 1.0 + 0.02 * len / 1000.0;
