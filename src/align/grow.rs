@@ -31,7 +31,7 @@ impl Default for GrowConfig {
     fn default() -> Self {
         GrowConfig {
             tolerance: 0.03,
-            min_tolerance: 0.004,
+            min_tolerance: 0.01,
             rounds: 8,
             points_per_seed: 120,
             max_misses: 3,

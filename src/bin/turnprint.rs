@@ -62,6 +62,10 @@ enum Command {
         /// Turn the within-map drift prior off (shape and geometry only).
         #[arg(long)]
         no_prior: bool,
+        /// Leave out loops scoring below this (0..1): 0.1 gives a short,
+        /// precise list (EVALUATION.md has the trade-off).
+        #[arg(long, default_value_t = 0.0)]
+        min_score: f64,
     },
     /// Writes A and B (mapped into A's frame by the best hypothesis) as one TUM file.
     Merge {
@@ -130,7 +134,8 @@ fn main() -> ExitCode {
             top,
             format,
             no_prior,
-        } => run_loops(&a, json, top, format, no_prior),
+            min_score,
+        } => run_loops(&a, json, top, format, no_prior, min_score),
         Command::Merge {
             a,
             b,
@@ -250,7 +255,14 @@ fn run_match(
     }
 }
 
-fn run_loops(a: &Path, json: bool, top: usize, fa: Format, no_prior: bool) -> Result<(), String> {
+fn run_loops(
+    a: &Path,
+    json: bool,
+    top: usize,
+    fa: Format,
+    no_prior: bool,
+    min_score: f64,
+) -> Result<(), String> {
     let progress = Progress::new();
     progress.stage("reading");
     let ta = read(a, fa)?;
@@ -261,6 +273,7 @@ fn run_loops(a: &Path, json: bool, top: usize, fa: Format, no_prior: bool) -> Re
     if no_prior {
         config.drift_prior = None;
     }
+    config.min_score = min_score;
     progress.stage("preparing (plane, track, signature, segments)");
     let pa = prepare(&ta, &config)?;
     progress.stage("searching loops");

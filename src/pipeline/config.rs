@@ -41,6 +41,9 @@ pub struct Config {
     /// Loops: parts closer than this much turning (radians of K) are the
     /// same place's neighbourhood, never a revisit.
     pub loop_exclusion: f64,
+    /// Hypotheses scoring below this are not returned (a short list beats
+    /// a padded one: every false loop costs the verifier and the user).
+    pub min_score: f64,
     /// Hypotheses returned.
     pub top_k: usize,
 }
@@ -59,6 +62,7 @@ impl Default for Config {
             score: ScoreConfig::default(),
             drift_prior: None,
             loop_exclusion: std::f64::consts::FRAC_PI_2,
+            min_score: 0.0,
             top_k: 5,
         }
     }
@@ -74,6 +78,7 @@ impl Config {
     pub fn for_loops() -> Self {
         let mut c = Config {
             drift_prior: Some(DriftPrior::default()),
+            min_score: 0.0,
             top_k: 10,
             ..Config::default()
         };
