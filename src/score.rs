@@ -19,6 +19,8 @@ pub struct ScoreConfig {
     pub residual_scale: f64,
     /// |ln(length ratio)| at which the length factor is 1/e.
     pub length_log_tolerance: f64,
+    /// Exponent of the coverage factor (0: coverage ignored).
+    pub coverage_power: f64,
 }
 
 impl Default for ScoreConfig {
@@ -27,6 +29,7 @@ impl Default for ScoreConfig {
             turning_scale: 1.5 * std::f64::consts::PI,
             residual_scale: 0.002,
             length_log_tolerance: 0.3,
+            coverage_power: 0.5,
         }
     }
 }
@@ -42,6 +45,8 @@ pub struct Evidence {
     pub relative_rmse: f64,
     /// Matched target length over matched query length times scale.
     pub length_ratio: f64,
+    /// Share of the shorter path (by length) inside the overlap.
+    pub coverage: f64,
 }
 
 /// Combines the evidence into a score in [0, 1].
@@ -54,7 +59,8 @@ pub fn score(e: &Evidence, config: &ScoreConfig) -> f64 {
     } else {
         0.0
     };
-    (zncc * turning * residual * length).clamp(0.0, 1.0)
+    let coverage = e.coverage.clamp(0.0, 1.0).powf(config.coverage_power);
+    (zncc * turning * residual * length * coverage).clamp(0.0, 1.0)
 }
 
 /// Score of a loop within one map: the geometric fit, times the better of
@@ -68,6 +74,7 @@ pub fn loop_score(e: &Evidence, prior: f64, config: &ScoreConfig) -> f64 {
         &Evidence {
             zncc: 1.0,
             turning: f64::INFINITY,
+            coverage: 1.0,
             ..*e
         },
         config,

@@ -86,6 +86,7 @@ impl Config {
         // Within one map the drift prior tells look-alikes apart, and a long
         // revisit bent by drift fits one similarity less tightly.
         c.score.residual_scale = 0.006;
+        c.score.coverage_power = 0.0;
         c
     }
 }

@@ -65,7 +65,7 @@ pub fn verify(
         &config.grow,
         allowed,
     )?;
-    Some(finish(query, overlap, cand.clone(), cand.zncc))
+    Some(finish(target, query, overlap, cand.clone(), cand.zncc))
 }
 
 /// Verifies a pooled candidate from its best vote and, when the votes span
@@ -135,17 +135,27 @@ pub fn verify_seeded(
         zncc,
         strength: 0.0,
     };
-    Some(finish(query, overlap, cand, zncc))
+    Some(finish(target, query, overlap, cand, zncc))
 }
 
 /// The evidence of a grown overlap.
-fn finish(query: &PreparedPath, overlap: Overlap, candidate: Candidate, zncc: f64) -> Verified {
+fn finish(
+    target: &PreparedPath,
+    query: &PreparedPath,
+    overlap: Overlap,
+    candidate: Candidate,
+    zncc: f64,
+) -> Verified {
     let length = overlap.target_length.max(overlap.query_length);
+    let query_fraction =
+        overlap.query_length / (overlap.a_T_b.scale * query.track.length()).max(f64::MIN_POSITIVE);
+    let target_fraction = overlap.target_length / target.track.length().max(f64::MIN_POSITIVE);
     let evidence = Evidence {
         zncc,
         turning: query.turning_between(overlap.query[0] as f64, overlap.query[1] as f64),
         relative_rmse: overlap.rmse / length.max(f64::MIN_POSITIVE),
         length_ratio: overlap.target_length / overlap.query_length,
+        coverage: query_fraction.max(target_fraction).clamp(0.0, 1.0),
     };
     Verified {
         overlap,
