@@ -5,31 +5,16 @@
 //!
 //! `cargo run --release --features verifier --example vision_eval -- [SEQ...] [--pairs N]`
 
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
-use turnprint::render::{on_road, render, World, WorldParams};
+use nalgebra::Isometry3;
+use turnprint::render::{camera_poses, on_road, render, World, WorldParams};
 use turnprint::vision::features::GrayImage;
 use turnprint::vision::{CameraModel, OrbVerifier, VerifierParams};
 
+/// Camera poses of a KITTI ground-truth file, read by the project's reader.
 fn kitti_poses(file: &str) -> Vec<Isometry3<f64>> {
-    let text = std::fs::read_to_string(file).unwrap_or_else(|e| panic!("{file}: {e}"));
-    text.lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(n, line)| {
-            let v: Vec<f64> = line
-                .split_whitespace()
-                .map(|x| {
-                    x.parse()
-                        .unwrap_or_else(|e| panic!("{file}:{}: {e}", n + 1))
-                })
-                .collect();
-            let r = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
-            Isometry3::from_parts(
-                Translation3::new(v[3], v[7], v[11]),
-                UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r)),
-            )
-        })
-        .collect()
+    let truth = turnprint::io::read_trajectory(file.as_ref(), turnprint::io::Format::Kitti)
+        .unwrap_or_else(|e| panic!("{e}"));
+    camera_poses(&truth)
 }
 
 /// Heading difference (radians) of the optical axes projected on the ground.

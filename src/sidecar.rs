@@ -19,14 +19,14 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use serde_json::{json, Value};
 
 use crate::io::{read_trajectory, Format};
 use crate::ipc::client::{Candidate, ClientConfig, Outcome, VerifierClient};
 use crate::ipc::payload::CameraParams;
 use crate::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
-use crate::render::{on_road, render, World, WorldParams};
+use crate::render::{camera_poses, on_road, render, World, WorldParams};
 use crate::vision::camera::CameraModel;
 use crate::{Error, Result, Trajectory};
 
@@ -473,25 +473,6 @@ fn pair_with_truth(input: &Trajectory, truth: &Trajectory) -> Vec<Option<usize>>
             .map(|i| (i < truth.len()).then_some(i))
             .collect(),
     }
-}
-
-/// Camera poses of the truth: its orientations, or (without them) looking
-/// along the path with y down, as KITTI's camera frame.
-fn camera_poses(truth: &Trajectory) -> Vec<Isometry3<f64>> {
-    let n = truth.len();
-    (0..n)
-        .map(|i| {
-            let p = truth.poses[i].position;
-            let q = truth.poses[i].orientation.unwrap_or_else(|| {
-                let next = truth.poses[(i + 1).min(n - 1)].position;
-                let prev = truth.poses[i.saturating_sub(1)].position;
-                let d = next - prev;
-                let yaw = d.x.atan2(d.z);
-                UnitQuaternion::from_axis_angle(&Vector3::y_axis(), yaw)
-            });
-            Isometry3::from_parts(Translation3::from(p), q)
-        })
-        .collect()
 }
 
 /// Whether a loop's query part truly revisits its match part: median

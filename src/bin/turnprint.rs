@@ -215,6 +215,24 @@ fn prepare(t: &Trajectory, config: &Config) -> Result<PreparedPath, String> {
     PreparedPath::new(t, config).map_err(|e| e.to_string())
 }
 
+/// Reads A and B and matches them, with a progress spinner.
+fn match_files(
+    a: &Path,
+    b: &Path,
+    fa: Format,
+    fb: Format,
+    config: &Config,
+) -> Result<(Trajectory, Trajectory, Vec<Hypothesis>), String> {
+    let progress = Progress::new();
+    progress.stage("reading");
+    let (ta, tb) = (read(a, fa)?, read(b, fb)?);
+    progress.stage("preparing (plane, track, signature, segments)");
+    let (pa, pb) = (prepare(&ta, config)?, prepare(&tb, config)?);
+    progress.stage("matching");
+    let hypotheses = pipeline::match_prepared(&pa, &pb, config);
+    Ok((ta, tb, hypotheses))
+}
+
 fn run_match(
     a: &Path,
     b: &Path,
@@ -223,18 +241,11 @@ fn run_match(
     fa: Format,
     fb: Format,
 ) -> Result<(), String> {
-    let progress = Progress::new();
-    progress.stage("reading");
-    let (ta, tb) = (read(a, fa)?, read(b, fb)?);
     let config = Config {
         top_k: top,
         ..Config::for_matching()
     };
-    progress.stage("preparing (plane, track, signature, segments)");
-    let (pa, pb) = (prepare(&ta, &config)?, prepare(&tb, &config)?);
-    progress.stage("matching");
-    let hypotheses = pipeline::match_prepared(&pa, &pb, &config);
-    drop(progress);
+    let (ta, tb, hypotheses) = match_files(a, b, fa, fb, &config)?;
     if json {
         let out = json!({
             "a": {"path": a.display().to_string(), "poses": ta.len()},
@@ -309,15 +320,7 @@ fn run_merge(
     fa: Format,
     fb: Format,
 ) -> Result<(), String> {
-    let progress = Progress::new();
-    progress.stage("reading");
-    let (ta, tb) = (read(a, fa)?, read(b, fb)?);
-    let config = Config::for_matching();
-    progress.stage("preparing");
-    let (pa, pb) = (prepare(&ta, &config)?, prepare(&tb, &config)?);
-    progress.stage("matching");
-    let hypotheses = pipeline::match_prepared(&pa, &pb, &config);
-    drop(progress);
+    let (ta, tb, hypotheses) = match_files(a, b, fa, fb, &Config::for_matching())?;
     let best = hypotheses.first().ok_or_else(|| {
         format!(
             "no overlap found between {} and {}",

@@ -16,7 +16,7 @@ use nalgebra::{Isometry3, Vector2, Vector3};
 
 use crate::vision::camera::CameraModel;
 use texture::{ground_shade, Facade};
-pub use world::{on_road, Panel, World, WorldParams};
+pub use world::{camera_poses, on_road, Panel, World, WorldParams};
 
 /// Rays stop after this distance (metres): beyond it fog hides everything.
 const MAX_DISTANCE: f64 = 300.0;

@@ -289,6 +289,25 @@ pub fn on_road(world_T_cam: &nalgebra::Isometry3<f64>) -> nalgebra::Isometry3<f6
     pose
 }
 
+/// Camera poses of the truth: its orientations, or (without them) looking
+/// along the path with y down, as KITTI's camera frame.
+pub fn camera_poses(truth: &crate::Trajectory) -> Vec<nalgebra::Isometry3<f64>> {
+    let n = truth.len();
+    (0..n)
+        .map(|i| {
+            let p = truth.poses[i].position;
+            let q = truth.poses[i].orientation.unwrap_or_else(|| {
+                let next = truth.poses[(i + 1).min(n - 1)].position;
+                let prev = truth.poses[i.saturating_sub(1)].position;
+                let d = next - prev;
+                let yaw = d.x.atan2(d.z);
+                nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::y_axis(), yaw)
+            });
+            nalgebra::Isometry3::from_parts(nalgebra::Translation3::from(p), q)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
