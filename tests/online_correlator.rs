@@ -7,6 +7,7 @@ use std::path::Path;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::matching::zncc::zncc_direct;
 use turnprint::online::correlator::BlockCorrelator;
+use turnprint::online::scan::{self, Query, QueryStats};
 use turnprint::pipeline::{Config, PreparedPath};
 
 fn signature(name: &str) -> (Vec<f32>, Vec<usize>) {
@@ -107,4 +108,76 @@ fn zncc_from_pieces_matches_the_batch_correlator() {
         checked += 1;
     }
     assert!(checked > a.len() / 2);
+}
+
+/// The tiled scan (2048 window starts per tile) finds the local maxima of
+/// the direct ZNCC, across tile borders, on a history longer than two tiles.
+#[test]
+fn tiled_scan_finds_the_peaks_of_the_direct_zncc() {
+    let mut a = Vec::new();
+    let mut bounds = Vec::new();
+    for name in ["00", "02", "05", "06", "08"] {
+        let (s, b) = signature(name);
+        bounds.extend(b.iter().map(|x| x + a.len()));
+        a.extend(s);
+    }
+    assert!(a.len() > 2 * 2048, "{} samples", a.len());
+    let a64: Vec<f64> = a.iter().map(|&v| v as f64).collect();
+    let mut c = BlockCorrelator::new(512);
+    c.update(&a);
+    let k = bounds.len() - 1;
+    let q1 = bounds[k];
+    let pieces: Vec<_> = (0..5)
+        .map(|i| c.piece(&a, bounds[k - i - 1], bounds[k - i] - bounds[k - i - 1]))
+        .collect();
+    let min = 0.5;
+    let queries: Vec<Query> = pieces
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let len = q1 - p.start + 1;
+            let q = &a64[p.start..=q1];
+            let mean = q.iter().sum::<f64>() / len as f64;
+            Query {
+                len,
+                // Windows end before the query starts.
+                count: p.start - len + 1,
+                stats: (i >= 1).then(|| QueryStats {
+                    mean,
+                    norm2: q.iter().map(|v| (v - mean).powi(2)).sum(),
+                    last: a64[q1],
+                }),
+            }
+        })
+        .collect();
+    let history = scan::History {
+        values: &a,
+        prefix: &c.prefix,
+        prefix_sq: &c.prefix_sq,
+        flat: 0.0,
+    };
+    let refs: Vec<_> = pieces.iter().collect();
+    let found = scan::scan(&refs, &queries, &history, min);
+    let mut checked = 0;
+    for (query, found) in queries.iter().zip(&found).skip(1) {
+        let q = &a64[q1 + 1 - query.len..=q1];
+        let direct = zncc_direct(&a64[..query.count + query.len - 1], q);
+        for (scores, peaks) in [(&direct.forward, &found[0]), (&direct.reversed, &found[1])] {
+            let is_peak = |st: usize, margin: f64| {
+                let v = scores[st];
+                v >= min
+                    && (st == 0 || scores[st - 1] < v - margin)
+                    && (st + 1 == scores.len() || scores[st + 1] < v - margin)
+            };
+            for &(st, v) in peaks {
+                assert!((v - scores[st]).abs() < 1e-3, "{st}: {v} vs {}", scores[st]);
+                assert!(is_peak(st, -1e-3), "{st} is not a peak of the direct ZNCC");
+            }
+            for st in (0..scores.len()).filter(|&st| is_peak(st, 1e-3)) {
+                assert!(peaks.iter().any(|p| p.0 == st), "direct peak {st} missed");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 20, "{checked} peaks checked");
 }

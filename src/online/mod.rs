@@ -23,6 +23,7 @@ pub mod events;
 pub mod frontend;
 pub mod guard;
 pub mod history;
+pub mod scan;
 pub mod search;
 pub mod synthetic;
 pub mod worker;

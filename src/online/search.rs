@@ -8,6 +8,7 @@ use std::collections::HashMap;
 
 use super::correlator::{BlockCorrelator, Piece};
 use super::history::{History, SpatialIndex, Window};
+use super::scan;
 use super::{Exclusion, OnlineConfig};
 use crate::geometry::{Plane, Similarity2};
 use crate::matching::{Candidate, Orientation};
@@ -100,10 +101,10 @@ impl Searcher {
             (sq / hist as f64 - (s / hist as f64).powi(2)).max(0.0)
         };
         let flat = FLAT_FRACTION * total_var;
-        let mut fwd = vec![0f64; q1 + 1];
-        let mut rev = vec![0f64; q1 + 1];
-        let mut hits: Vec<(usize, f64, f64)> = Vec::new();
-        let mut pooled: HashMap<(bool, i64), Candidate> = HashMap::new();
+        // The queries of the newest 1..=max_n pieces, as far as the history
+        // leaves room for them outside the query's own neighbourhood.
+        let mut queries = Vec::new();
+        let mut pieces = Vec::new();
         let max_n = qc.max_segments.min(self.pieces.len());
         for n in 1..=max_n {
             let piece = &self.pieces[self.pieces.len() - n];
@@ -124,88 +125,42 @@ impl Searcher {
             if end < len {
                 break;
             }
-            // Windows start at st in [0, count): forward x = st + len - 1
-            // (x = target of the newest sample), reversed x = st.
-            let count = end - len + 1;
-            let (f_lo, r_lo) = (len - 1, 0);
-            {
-                // The piece's raw correlations, aligned on x.
-                let f_src = &piece.forward[..piece.forward.len().min(count)];
-                for (acc, &g) in fwd[f_lo..f_lo + f_src.len()].iter_mut().zip(f_src) {
-                    *acc += g as f64;
-                }
-                let r_from = (len - 1).min(piece.reversed.len());
-                let r_src = &piece.reversed[r_from..piece.reversed.len().min(r_from + count)];
-                for (acc, &g) in rev[..r_src.len()].iter_mut().zip(r_src) {
-                    *acc += g as f64;
-                }
-            }
-            if n < qc.min_segments {
-                continue;
-            }
-            let mut q_sum = 0.0;
-            for &v in &a[q0..=q1] {
-                q_sum += v as f64;
-            }
-            let mean = q_sum / len as f64;
-            let q_norm2: f64 = a[q0..=q1].iter().map(|&v| (v as f64 - mean).powi(2)).sum();
-            if q_norm2 <= 0.0 {
-                continue;
-            }
-            let last = a[q1] as f64;
-            let (p1, p2) = (&self.correlator.prefix, &self.correlator.prefix_sq);
-            let min = qc.min_zncc;
-            let inv_l = 1.0 / len as f64;
-            // One fused pass over the window starts, shared by both
-            // directions; below-threshold windows get -2 (all the peak search
-            // needs to know of them) without a root or a division.
-            let (ph, pl) = (&p1[len..len + count], &p1[..count]);
-            let (qh, ql) = (&p2[len..len + count], &p2[..count]);
-            let (fa, fr) = (&fwd[len - 1..len - 1 + count], &a[len - 1..len - 1 + count]);
-            let (ra, rr) = (&rev[..count], &a[..count]);
-            // Only windows that reach the threshold in some direction are
-            // kept (sparse, in order): the pass is memory-bound, so it
-            // writes nothing for the others.
-            hits.clear();
-            let min2 = min * min;
-            let flat_value = if min <= 0.0 { 0.0 } else { -2.0 };
-            for st in 0..count {
-                let sum = ph[st] - pl[st];
-                let var = (qh[st] - ql[st]) * inv_l - (sum * inv_l) * (sum * inv_l);
-                if var <= flat {
-                    if min <= 0.0 {
-                        hits.push((st, flat_value, flat_value));
-                    }
-                    continue;
-                }
-                let d2 = var * len as f64 * q_norm2;
-                let fnum = fa[st] + last * fr[st] as f64 - mean * sum;
-                let rnum = ra[st] - last * rr[st] as f64 + mean * sum;
-                // The threshold test needs no root or division.
-                let fpass = min <= 0.0 || (fnum > 0.0 && fnum * fnum >= min2 * d2);
-                let rpass = min <= 0.0 || (rnum > 0.0 && rnum * rnum >= min2 * d2);
-                if fpass || rpass {
-                    let inv = 1.0 / d2.sqrt();
-                    let f = if fpass {
-                        (fnum * inv).clamp(-1.0, 1.0)
-                    } else {
-                        -2.0
-                    };
-                    let r = if rpass {
-                        (rnum * inv).clamp(-1.0, 1.0)
-                    } else {
-                        -2.0
-                    };
-                    hits.push((st, f, r));
-                }
-            }
+            let q = &a[q0..=q1];
+            let mean = q.iter().map(|&v| v as f64).sum::<f64>() / len as f64;
+            let norm2: f64 = q.iter().map(|&v| (v as f64 - mean).powi(2)).sum();
+            queries.push(scan::Query {
+                len,
+                // Windows start at st in [0, count): forward x = st + len - 1
+                // (x = target of the newest sample), reversed x = st.
+                count: end - len + 1,
+                stats: (n >= qc.min_segments && norm2 > 0.0).then_some(scan::QueryStats {
+                    mean,
+                    norm2,
+                    last: a[q1] as f64,
+                }),
+            });
+            pieces.push(piece);
+        }
+        let history = scan::History {
+            values: a,
+            prefix: &self.correlator.prefix,
+            prefix_sq: &self.correlator.prefix_sq,
+            flat,
+        };
+        let found = scan::scan(&pieces, &queries, &history, qc.min_zncc);
+        let mut pooled: HashMap<(bool, i64), Candidate> = HashMap::new();
+        for (query, found) in queries.iter().zip(found) {
+            let len = query.len;
+            let q0 = q1 + 1 - len;
             let spacing = (len - 1).div_ceil(2).max(1);
-            for (is_rev, lo) in [(false, f_lo), (true, r_lo)] {
-                for (x, z) in peaks(lo, &hits, is_rev, qc.min_zncc, qc.peaks_per_query, spacing) {
+            for (is_rev, found) in [false, true].into_iter().zip(found) {
+                for (st, z) in scan::best_spaced(found, qc.peaks_per_query, spacing) {
+                    // The alignment line through x, the target of the newest
+                    // sample (st reversed, st + len - 1 forward).
                     let line = if is_rev {
-                        x as i64 + q1 as i64
+                        st as i64 + q1 as i64
                     } else {
-                        x as i64 - q1 as i64
+                        (st + len - 1) as i64 - q1 as i64
                     };
                     let cand = Candidate {
                         orientation: Orientation {
@@ -241,44 +196,6 @@ impl Searcher {
         out.truncate(config.max_verify);
         out
     }
-}
-
-/// The best `count` local maxima above `min` of one direction's scores
-/// (indices from `lo`), at least `spacing` apart, as the batch peak search.
-/// `hits` lists, in order, the windows where either direction reaches
-/// `min` (forward, reversed score); every other window is below it.
-fn peaks(
-    lo: usize,
-    hits: &[(usize, f64, f64)],
-    reversed: bool,
-    min: f64,
-    count: usize,
-    spacing: usize,
-) -> Vec<(usize, f64)> {
-    let value = |h: &(usize, f64, f64)| if reversed { h.2 } else { h.1 };
-    let mut found: Vec<(usize, f64)> = Vec::new();
-    for (k, h) in hits.iter().enumerate() {
-        let v = value(h);
-        if v < min {
-            continue;
-        }
-        let left = k == 0 || hits[k - 1].0 + 1 != h.0 || value(&hits[k - 1]) < v;
-        let right = k + 1 == hits.len() || hits[k + 1].0 != h.0 + 1 || value(&hits[k + 1]) <= v;
-        if left && right {
-            found.push((lo + h.0, v));
-        }
-    }
-    found.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let mut kept: Vec<(usize, f64)> = Vec::with_capacity(count);
-    for (x, v) in found {
-        if kept.iter().all(|&(k, _)| k.abs_diff(x) >= spacing) {
-            kept.push((x, v));
-            if kept.len() == count {
-                break;
-            }
-        }
-    }
-    kept
 }
 
 /// Proximity seed of the newest two segments (as the batch proximity
