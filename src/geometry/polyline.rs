@@ -3,13 +3,15 @@
 //!
 //! The index is a parry2d BVH over runs of [`CHUNK`] consecutive segments
 //! rather than over single segments: a path is spatially coherent, so a run's
-//! box is tight, and building the tree over 8x fewer leaves is what keeps
-//! verification cheap (the per-segment build was half of the online
-//! detector's time). The tree is built on the first query, so a path that is
-//! never a target costs nothing, and short polylines (a few hundred
-//! segments) skip it for a flat scan of the leaf boxes.
+//! box is tight, and 8x fewer leaves make the tree cheap to build. A whole
+//! path builds its tree on the first query (a path that is never a target
+//! costs nothing); a growing path (the online history) keeps one
+//! [`PathIndex`], extended as it grows, that every window cut from it shares,
+//! so verification builds no tree at all (per-window trees were half of the
+//! online detector's time).
 
-use std::sync::OnceLock;
+use std::ops::Range;
+use std::sync::{Arc, OnceLock};
 
 use glam::DVec2;
 use nalgebra::Vector2;
@@ -18,16 +20,31 @@ use parry2d_f64::partitioning::{Bvh, BvhBuildStrategy};
 
 /// Consecutive segments per BVH leaf.
 const CHUNK: usize = 8;
+/// Consecutive segments per leaf of a [`PathIndex`]: longer runs than a
+/// whole path's keep the online history's tree within its memory budget
+/// (a tree node per 8 segments would cost about 60 bytes per pose).
+const PATH_CHUNK: usize = 32;
 /// Up to this many leaves a flat scan of their boxes beats building and
-/// walking a tree (the online detector's verification windows).
+/// walking a tree.
 const FLAT_LEAVES: usize = 128;
 
-/// A polyline, the arc length at each vertex, and a lazily built BVH.
+/// A polyline, the arc length at each vertex, and its BVH.
 pub struct Polyline2 {
     vertices: Vec<Vector2<f64>>,
     arc: Vec<f64>,
-    bvh: OnceLock<Bvh>,
-    leaves: OnceLock<Vec<Aabb>>,
+    index: Index,
+}
+
+/// Where a polyline's BVH comes from.
+enum Index {
+    /// Its own, built on the first query.
+    Own {
+        bvh: OnceLock<Bvh>,
+        leaves: OnceLock<Vec<Aabb>>,
+    },
+    /// A window of a larger path: that path's index, and the global number
+    /// of the window's first vertex.
+    Shared { index: Arc<PathIndex>, first: usize },
 }
 
 /// Nearest point of a [`Polyline2`] to a query point.
@@ -41,9 +58,71 @@ pub struct Projection {
     pub vertex: f64,
 }
 
+/// The BVH of a growing path: one leaf per complete run of [`PATH_CHUNK`]
+/// segments, inserted as the path grows.
+#[derive(Clone, Default)]
+pub struct PathIndex {
+    bvh: Bvh,
+    boxes: Vec<Aabb>,
+}
+
+impl PathIndex {
+    /// Indexes the complete runs among the first `n` vertices (`vertex(i)`
+    /// gives vertex `i`) that are not indexed yet.
+    pub fn extend(&mut self, n: usize, vertex: impl Fn(usize) -> Vector2<f64>) {
+        while (self.boxes.len() + 1) * PATH_CHUNK < n {
+            let leaf = self.boxes.len();
+            let aabb = run_box((leaf * PATH_CHUNK..=(leaf + 1) * PATH_CHUNK).map(&vertex));
+            self.bvh.insert(aabb, leaf as u32);
+            self.boxes.push(aabb);
+        }
+    }
+
+    /// Segments covered by leaves (the later ones are scanned directly).
+    fn indexed_segments(&self) -> usize {
+        self.boxes.len() * PATH_CHUNK
+    }
+
+    /// Bytes held (boxes and tree nodes).
+    pub fn bytes(&self) -> usize {
+        self.boxes.capacity() * std::mem::size_of::<Aabb>() + self.bvh.total_memory_size()
+    }
+}
+
+/// The box of a run of vertices.
+fn run_box(mut vertices: impl Iterator<Item = Vector2<f64>>) -> Aabb {
+    let first = vertices.next().unwrap_or_else(Vector2::zeros);
+    let (lo, hi) = vertices.fold((first, first), |(lo, hi), v| (lo.inf(&v), hi.sup(&v)));
+    Aabb::new(DVec2::new(lo.x, lo.y), DVec2::new(hi.x, hi.y))
+}
+
+/// Squared distance from `q` to a box (0 inside).
+fn box_dist2(b: &Aabb, q: DVec2) -> f64 {
+    (b.mins - q)
+        .max(q - b.maxs)
+        .max(DVec2::ZERO)
+        .length_squared()
+}
+
 impl Polyline2 {
-    /// A polyline through `points` (at least two, all finite).
+    /// A polyline through `points` (all finite), with its own index.
     pub fn new(points: &[Vector2<f64>]) -> Self {
+        Self::with_index(
+            points,
+            Index::Own {
+                bvh: OnceLock::new(),
+                leaves: OnceLock::new(),
+            },
+        )
+    }
+
+    /// Vertices `first..first + points.len()` of the path that `index`
+    /// indexes (`points` are those vertices).
+    pub fn window(points: &[Vector2<f64>], index: Arc<PathIndex>, first: usize) -> Self {
+        Self::with_index(points, Index::Shared { index, first })
+    }
+
+    fn with_index(points: &[Vector2<f64>], index: Index) -> Self {
         let mut arc = Vec::with_capacity(points.len());
         let mut acc = 0.0;
         for (i, p) in points.iter().enumerate() {
@@ -55,39 +134,76 @@ impl Polyline2 {
         Polyline2 {
             vertices: points.to_vec(),
             arc,
-            bvh: OnceLock::new(),
-            leaves: OnceLock::new(),
+            index,
         }
     }
 
-    /// Segments `[CHUNK·leaf, CHUNK·(leaf+1))` (segment `i` joins vertices
-    /// `i` and `i + 1`).
-    fn leaf_segments(&self, leaf: usize) -> std::ops::Range<usize> {
+    /// Segments `[CHUNK·leaf, CHUNK·(leaf+1))` of a polyline with its own
+    /// index (segment `i` joins vertices `i` and `i + 1`).
+    fn own_leaf(&self, leaf: usize) -> Range<usize> {
         let n = self.vertices.len().saturating_sub(1);
         (leaf * CHUNK).min(n)..((leaf + 1) * CHUNK).min(n)
     }
 
-    /// The box of each leaf's segments.
-    fn leaf_boxes(&self) -> Vec<Aabb> {
-        let n = self.vertices.len().saturating_sub(1);
-        (0..n.div_ceil(CHUNK))
-            .map(|leaf| {
-                let r = self.leaf_segments(leaf);
-                let (mut lo, mut hi) = (self.vertices[r.start], self.vertices[r.start]);
-                for v in &self.vertices[r.start..=r.end] {
-                    lo = lo.inf(v);
-                    hi = hi.sup(v);
+    /// Runs of segments that may hold a point within `max_dist` of `q`,
+    /// with a lower bound of their squared distance, nearest first.
+    fn near_runs(&self, q: DVec2, max_dist: f64) -> Vec<(f64, Range<usize>)> {
+        let r = DVec2::splat(max_dist.min(f64::MAX));
+        let aabb = Aabb::new(q - r, q + r);
+        let max2 = max_dist * max_dist;
+        let mut near: Vec<(f64, Range<usize>)> = match &self.index {
+            Index::Own { bvh, leaves } => {
+                let leaves = leaves.get_or_init(|| {
+                    let n = self.vertices.len().saturating_sub(1);
+                    (0..n.div_ceil(CHUNK))
+                        .map(|leaf| {
+                            let s = self.own_leaf(leaf);
+                            run_box(self.vertices[s.start..=s.end].iter().copied())
+                        })
+                        .collect()
+                });
+                let run = |leaf: u32| {
+                    let d2 = box_dist2(&leaves[leaf as usize], q);
+                    (d2, self.own_leaf(leaf as usize))
+                };
+                if leaves.len() <= FLAT_LEAVES {
+                    (0..leaves.len() as u32)
+                        .map(run)
+                        .filter(|r| r.0 <= max2)
+                        .collect()
+                } else {
+                    bvh.get_or_init(|| Bvh::from_leaves(BvhBuildStrategy::Binned, leaves))
+                        .intersect_aabb(&aabb)
+                        .map(run)
+                        .collect()
                 }
-                Aabb::new(DVec2::new(lo.x, lo.y), DVec2::new(hi.x, hi.y))
-            })
-            .collect()
-    }
-
-    fn bvh(&self) -> &Bvh {
-        self.bvh.get_or_init(|| {
-            let leaves = self.leaves.get_or_init(|| self.leaf_boxes());
-            Bvh::from_leaves(BvhBuildStrategy::Binned, leaves)
-        })
+            }
+            Index::Shared { index, first } => {
+                // Global segments [first, last) are the window's.
+                let (first, last) = (*first, first + self.vertices.len().saturating_sub(1));
+                let local = |g: Range<usize>| {
+                    g.start.max(first) - first..g.end.min(last).saturating_sub(first)
+                };
+                let mut near: Vec<(f64, Range<usize>)> = index
+                    .bvh
+                    .intersect_aabb(&aabb)
+                    .map(|leaf| {
+                        let leaf = leaf as usize;
+                        let d2 = box_dist2(&index.boxes[leaf], q);
+                        (d2, local(leaf * PATH_CHUNK..(leaf + 1) * PATH_CHUNK))
+                    })
+                    .filter(|r| !r.1.is_empty())
+                    .collect();
+                // The newest segments, not in a complete run yet.
+                let tail = local(index.indexed_segments().max(first)..last);
+                if !tail.is_empty() {
+                    near.push((0.0, tail));
+                }
+                near
+            }
+        };
+        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        near
     }
 
     /// Nearest point to `p` (the whole polyline searched).
@@ -107,33 +223,15 @@ impl Polyline2 {
         if self.vertices.len() < 2 {
             return None;
         }
-        let r = DVec2::splat(max_dist.min(f64::MAX));
-        let q = DVec2::new(p.x, p.y);
-        let aabb = Aabb::new(q - r, q + r);
-        let leaves = self.leaves.get_or_init(|| self.leaf_boxes());
-        // Leaves nearest first, so the scan stops at the first leaf whose box
-        // is farther than the best point found.
-        let box_dist2 = |leaf: u32| {
-            let b = &leaves[leaf as usize];
-            let d = (b.mins - q).max(q - b.maxs).max(DVec2::ZERO);
-            (d.length_squared(), leaf)
-        };
-        let mut near: Vec<(f64, u32)> = if leaves.len() <= FLAT_LEAVES {
-            (0..leaves.len() as u32)
-                .map(box_dist2)
-                .filter(|&(d2, _)| d2 <= max_dist * max_dist)
-                .collect()
-        } else {
-            self.bvh().intersect_aabb(&aabb).map(box_dist2).collect()
-        };
-        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         let max2 = max_dist * max_dist;
         let mut best: Option<(f64, usize, f64)> = None;
-        for (box2, leaf) in near {
+        // Runs nearest first: the scan stops at the first run whose box is
+        // farther than the best point found.
+        for (box2, run) in self.near_runs(DVec2::new(p.x, p.y), max_dist) {
             if best.is_some_and(|b| b.0 < box2) {
                 break;
             }
-            for i in self.leaf_segments(leaf as usize) {
+            for i in run {
                 let (a, b) = (self.vertices[i], self.vertices[i + 1]);
                 let ab = b - a;
                 let len2 = ab.norm_squared();
@@ -172,28 +270,63 @@ impl Polyline2 {
 mod tests {
     use super::*;
 
+    fn zigzag(n: usize) -> Vec<Vector2<f64>> {
+        (0..n)
+            .map(|i| Vector2::new(i as f64, ((i * 7) % 5) as f64))
+            .collect()
+    }
+
+    fn brute(pts: &[Vector2<f64>], p: &Vector2<f64>) -> f64 {
+        (0..pts.len() - 1)
+            .map(|i| {
+                let (a, b) = (pts[i], pts[i + 1]);
+                let t = ((p - a).dot(&(b - a)) / (b - a).norm_squared()).clamp(0.0, 1.0);
+                (a + (b - a) * t - p).norm()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
     #[test]
     fn nearest_point_on_a_zigzag_matches_brute_force() {
-        let pts: Vec<Vector2<f64>> = (0..203)
-            .map(|i| Vector2::new(i as f64, ((i * 7) % 5) as f64))
-            .collect();
-        let line = Polyline2::new(&pts);
-        for k in 0..50 {
-            let p = Vector2::new(k as f64 * 4.1 - 3.0, (k % 9) as f64 - 2.0);
-            let brute = (0..pts.len() - 1)
-                .map(|i| {
-                    let (a, b) = (pts[i], pts[i + 1]);
-                    let t = ((p - a).dot(&(b - a)) / (b - a).norm_squared()).clamp(0.0, 1.0);
-                    (a + (b - a) * t - p).norm()
-                })
-                .fold(f64::INFINITY, f64::min);
-            let got = line.project(&p).expect("a nearest point");
-            assert!(
-                (got.distance - brute).abs() < 1e-12,
-                "{k}: {got:?} vs {brute}"
+        // Short (flat scan) and long (tree) polylines.
+        for n in [203, 2003] {
+            let pts = zigzag(n);
+            let line = Polyline2::new(&pts);
+            for k in 0..50 {
+                let p = Vector2::new(k as f64 * 0.041 * n as f64 - 3.0, (k % 9) as f64 - 2.0);
+                let d = brute(&pts, &p);
+                let got = line.project(&p).expect("a nearest point");
+                assert!((got.distance - d).abs() < 1e-12, "{k}: {got:?} vs {d}");
+                if d > 0.0 {
+                    assert!(line.project_within(&p, d * 0.99, |_| true).is_none());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_window_of_a_shared_index_equals_its_own_polyline() {
+        let pts = zigzag(1000);
+        let mut index = PathIndex::default();
+        // Indexed as it grows, with a tail not yet in a complete run.
+        for n in [100, 517, 1000] {
+            index.extend(n, |i| pts[i]);
+        }
+        let index = Arc::new(index);
+        for (first, last) in [(0, 999), (37, 420), (990, 999), (500, 503)] {
+            let w = &pts[first..=last];
+            let (shared, own) = (
+                Polyline2::window(w, index.clone(), first),
+                Polyline2::new(w),
             );
-            if brute > 0.0 {
-                assert!(line.project_within(&p, brute * 0.99, |_| true).is_none());
+            for k in 0..40 {
+                let p = Vector2::new(first as f64 + k as f64 * 11.3 % 500.0, (k % 7) as f64);
+                let (a, b) = (shared.project(&p), own.project(&p));
+                assert_eq!(
+                    a.map(|a| a.vertex),
+                    b.map(|b| b.vertex),
+                    "{first}..{last} {k}"
+                );
             }
         }
     }

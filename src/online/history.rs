@@ -7,15 +7,18 @@
 //! Positions are relative to the warm-up plane's centroid, so `f32` keeps
 //! well below a millimetre on paths of tens of kilometres.
 
+use std::sync::Arc;
+
 use nalgebra::Vector2;
 
+use crate::geometry::polyline::PathIndex;
 use crate::geometry::{Plane, Polyline2};
 use crate::pipeline::PreparedPath;
 use crate::signature::Signature;
 use crate::track::Track;
 
 /// Finalised samples of the whole path so far.
-#[derive(Debug, Default)]
+#[derive(Default)]
 pub struct History {
     /// Track positions.
     pub xy: Vec<[f32; 2]>,
@@ -33,6 +36,9 @@ pub struct History {
     pub bounds: Vec<usize>,
     /// Keyframe ids by pose index, increasing.
     pub keyframes: Vec<(u32, u64)>,
+    /// BVH of the track, shared by the windows' polylines (no window
+    /// builds its own tree).
+    pub index: Arc<PathIndex>,
 }
 
 /// A window of the history as a prepared path, with its offsets.
@@ -57,6 +63,14 @@ impl History {
         Track::interp(&self.s, self.sig_grid[j])
     }
 
+    /// Indexes the track samples appended since the last call.
+    pub fn index_new_samples(&mut self) {
+        let xy = &self.xy;
+        // The windows holding the index are gone by now: no copy is made.
+        Arc::make_mut(&mut self.index)
+            .extend(xy.len(), |i| Vector2::new(xy[i][0] as f64, xy[i][1] as f64));
+    }
+
     /// Bytes held per stored item (for the memory figures).
     pub fn bytes(&self) -> usize {
         self.xy.capacity() * 8
@@ -67,6 +81,7 @@ impl History {
             + self.sig_grid.capacity() * 8
             + self.bounds.capacity() * 8
             + self.keyframes.capacity() * 16
+            + self.index.bytes()
     }
 
     /// Keyframe ids of poses in `[p0, p1]`, at most `max` spread evenly.
@@ -147,7 +162,7 @@ impl History {
             .filter(|&&b| b >= sig0 && b < sig1)
             .map(|&b| b - sig0)
             .collect();
-        let polyline = Polyline2::new(&track.xy);
+        let polyline = Polyline2::window(&track.xy, self.index.clone(), g0);
         Some(Window {
             path: PreparedPath {
                 plane: *plane,

@@ -136,6 +136,7 @@ impl WorkerState {
         }
         h.keyframes
             .extend(m.out.keyframes.iter().map(|&(p, k)| (p as u32, k)));
+        h.index_new_samples();
         self.searcher.update(h, &m.frame);
         let keep = self.config.pipeline.query.max_segments;
         let new = m.out.bounds.len();
