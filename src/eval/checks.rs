@@ -39,6 +39,52 @@ pub fn overlap(a_true: &[Vector3<f64>], b_true: &[Vector3<f64>], radius: f64) ->
     Overlap { a, b, length }
 }
 
+/// Total turning (degrees) of the ground-truth road through `indices` (the
+/// longest run of them without a gap of more than 5 poses): heading changes
+/// summed over steps of at least [`TURNING_STEP_M`] so that pose noise adds
+/// nothing. How much shape a common road has to be found by.
+pub fn road_turning_deg(truth: &[Vector3<f64>], indices: &[usize]) -> f64 {
+    let mut best = (0, 0);
+    let mut start = 0;
+    for k in 1..=indices.len() {
+        if k == indices.len() || indices[k] > indices[k - 1] + 5 {
+            if k - start > best.1 - best.0 {
+                best = (start, k);
+            }
+            start = k;
+        }
+    }
+    if best.1 <= best.0 {
+        return 0.0;
+    }
+    let (first, last) = (indices[best.0], indices[best.1 - 1]);
+    let mut knots = vec![truth[first]];
+    for p in &truth[first..=last] {
+        if (p - knots[knots.len() - 1]).norm() >= TURNING_STEP_M {
+            knots.push(*p);
+        }
+    }
+    let headings: Vec<f64> = knots
+        .windows(2)
+        .map(|w| {
+            let d = w[1] - w[0];
+            // KITTI's ground plane is x-z.
+            d.z.atan2(d.x)
+        })
+        .collect();
+    headings
+        .windows(2)
+        .map(|w| {
+            let d = (w[1] - w[0]).rem_euclid(std::f64::consts::TAU);
+            d.min(std::f64::consts::TAU - d)
+        })
+        .sum::<f64>()
+        .to_degrees()
+}
+
+/// Step of [`road_turning_deg`] (ground-truth metres).
+pub const TURNING_STEP_M: f64 = 10.0;
+
 /// True when the inclusive range `[first, last]` contains one of `indices`.
 pub fn range_hits(range: [usize; 2], indices: &[usize]) -> bool {
     let (lo, hi) = (range[0].min(range[1]), range[0].max(range[1]));

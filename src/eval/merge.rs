@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 use rand::{seq::IndexedRandom, Rng};
 use serde::Serialize;
 
-use super::checks::{merge_verdict, merge_verdict_of, overlap};
+use super::checks::{merge_verdict, merge_verdict_of, overlap, road_turning_deg};
 use super::similarity::{random_similarity, rotation_error_deg, scale_error_pct, umeyama};
 use super::windows::{overlapping_window, random_window, revisit_windows, Window, WindowSpec};
 use super::{Prepared, Source};
@@ -38,6 +38,8 @@ pub struct MergeCase {
     pub b_poses: usize,
     /// Ground-truth length (m) of the common road.
     pub overlap_m: f64,
+    /// Total turning (degrees) of the common road in the ground truth.
+    pub overlap_turning_deg: f64,
     /// Rank-1 score, 0 when there is no hypothesis.
     pub rank1_score: f64,
     pub rank1_correct: bool,
@@ -217,6 +219,7 @@ pub fn positive_case(
         a_poses: a_traj.len(),
         b_poses: b_traj.len(),
         overlap_m: truth.length,
+        overlap_turning_deg: road_turning_deg(&a_cut.truth, &truth.a),
         rank1_score: hyps.first().map_or(0.0, |h| h.score),
         rank1_correct,
         top5_correct: verdicts.iter().any(|v| v.correct),

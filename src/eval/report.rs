@@ -181,6 +181,15 @@ impl Report {
                 &(|c: &MergeCase| c.kind == "time") as &dyn Fn(&MergeCase) -> bool,
             ),
             ("revisit overlap", &|c: &MergeCase| c.kind == "revisit"),
+            ("common road turning < 90°", &|c: &MergeCase| {
+                c.overlap_turning_deg < 90.0
+            }),
+            ("common road turning 90-180°", &|c: &MergeCase| {
+                (90.0..180.0).contains(&c.overlap_turning_deg)
+            }),
+            ("common road turning >= 180°", &|c: &MergeCase| {
+                c.overlap_turning_deg >= 180.0
+            }),
             ("B forward", &|c: &MergeCase| !c.reversed),
             ("B reversed", &|c: &MergeCase| c.reversed),
         ] {
