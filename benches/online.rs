@@ -120,6 +120,7 @@ fn match_segment_on(c: &mut Criterion, name: &str, points: &[Vector3<f64>]) {
     // The whole history as one merged message: only its newest segment is
     // matched (and the last pieces cached).
     state.take(Message {
+        earlier: Vec::new(),
         out,
         at_pose: points.len() - 1,
         frame,

@@ -19,6 +19,10 @@ use super::search::Frame;
 use super::worker::{spawn, Message, Overflow, WorkerStats};
 use super::OnlineConfig;
 
+/// Track samples past which a deferred outbox is sealed (see `send`): its
+/// largest copy on the caller's thread is then about 50 kB.
+const SEALED_CHUNK: usize = 1024;
+
 /// One pose as odometry delivers it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PoseInput {
@@ -81,6 +85,8 @@ pub struct Detector {
     guard: TimeGuard,
     front: Frontend,
     outbox: Outbox,
+    /// Sealed outboxes of deferred hand-overs, oldest first.
+    pending: Vec<Outbox>,
     poses: usize,
     summary: Summary,
     started: Option<Instant>,
@@ -111,6 +117,7 @@ impl Detector {
             overflow,
             guard: TimeGuard::default(),
             outbox: Outbox::default(),
+            pending: Vec::new(),
             poses: 0,
             summary: Summary::default(),
             started: None,
@@ -188,6 +195,7 @@ impl Detector {
             return;
         };
         let m = Message {
+            earlier: std::mem::take(&mut self.pending),
             out: std::mem::take(&mut self.outbox),
             at_pose: self.poses - 1,
             frame,
@@ -208,7 +216,20 @@ impl Detector {
                 Err(TrySendError::Full(m)) | Err(TrySendError::Disconnected(m)) => {
                     self.summary.deferred += 1;
                     self.merging = true;
-                    self.outbox = m.out;
+                    // While the worker lags the records pile up; grown in
+                    // one buffer, each doubling would copy all of them on
+                    // the caller's thread (pushes of 5-50 ms after minutes
+                    // of lag). Past SEALED_CHUNK samples the outbox is
+                    // sealed and a fresh one started: no copy exceeds that.
+                    let Message {
+                        mut earlier, out, ..
+                    } = m;
+                    if out.grid.len() >= SEALED_CHUNK {
+                        earlier.push(out);
+                    } else {
+                        self.outbox = out;
+                    }
+                    self.pending = earlier;
                 }
             },
         }
@@ -246,7 +267,7 @@ impl Detector {
             s.flush(&mut counts, &mut self.outbox);
         }
         self.summary.guards = counts;
-        if !self.outbox.is_empty() {
+        if !self.outbox.is_empty() || !self.pending.is_empty() {
             // The last hand-over always waits: nothing may be lost at the end.
             let overflow = self.overflow;
             self.overflow = Overflow::Block;

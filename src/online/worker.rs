@@ -37,6 +37,9 @@ pub enum Overflow {
 /// One hand-over from the caller.
 #[derive(Debug)]
 pub struct Message {
+    /// Sealed outboxes of deferred hand-overs, oldest first (their records
+    /// come before `out`'s).
+    pub earlier: Vec<Outbox>,
     /// Finalised samples.
     pub out: Outbox,
     /// Pose whose arrival produced the last of them.
@@ -116,32 +119,43 @@ impl WorkerState {
     /// matches the newest one. Returns the candidates.
     pub fn take(&mut self, m: Message) -> Vec<CandidateEvent> {
         self.stats.messages += 1;
+        // The caller's deferred chunks and the newest, appended in order
+        // straight into the history: joining them first would build (and
+        // then free) one large buffer per merged message, and freeing
+        // hundreds of megabytes stalls the caller's own allocations.
+        let chunks: Vec<Outbox> = m.earlier.into_iter().chain([m.out]).collect();
         let h = &mut self.history;
-        let (ng, ns) = (m.out.grid.len(), m.out.sig.len());
+        let ng = chunks.iter().map(|c| c.grid.len()).sum();
+        let ns = chunks.iter().map(|c| c.sig.len()).sum();
         grow(&mut h.xy, ng);
         grow(&mut h.s, ng);
         grow(&mut h.curvature, ng);
         grow(&mut h.pose, ng);
         grow(&mut h.sig_value, ns);
         grow(&mut h.sig_grid, ns);
-        for g in &m.out.grid {
-            h.xy.push([g.xy.x as f32, g.xy.y as f32]);
-            h.s.push(g.s);
-            h.curvature.push(g.curvature as f32);
-            h.pose.push(g.pose.round().max(0.0) as u32);
+        let mut bounds = Vec::new();
+        for c in &chunks {
+            for g in &c.grid {
+                h.xy.push([g.xy.x as f32, g.xy.y as f32]);
+                h.s.push(g.s);
+                h.curvature.push(g.curvature as f32);
+                h.pose.push(g.pose.round().max(0.0) as u32);
+            }
+            for p in &c.sig {
+                h.sig_value.push(p.value as f32);
+                h.sig_grid.push(p.grid);
+            }
+            h.keyframes
+                .extend(c.keyframes.iter().map(|&(p, k)| (p as u32, k)));
+            bounds.extend_from_slice(&c.bounds);
         }
-        for p in &m.out.sig {
-            h.sig_value.push(p.value as f32);
-            h.sig_grid.push(p.grid);
-        }
-        h.keyframes
-            .extend(m.out.keyframes.iter().map(|&(p, k)| (p as u32, k)));
+        drop(chunks);
         h.index_new_samples();
         self.searcher.update(h, &m.frame);
         let keep = self.config.pipeline.query.max_segments;
-        let new = m.out.bounds.len();
+        let new = bounds.len();
         let mut events = Vec::new();
-        for (i, &b) in m.out.bounds.iter().enumerate() {
+        for (i, &b) in bounds.iter().enumerate() {
             if self.history.bounds.last() == Some(&b) {
                 continue;
             }
