@@ -126,4 +126,79 @@ impl DriftPrior {
         let term = |x: f64, sigma: f64| 1.0 / (1.0 + (x / sigma).powi(2));
         term(angle, sigma_angle) * term(scale.ln(), sigma_scale) * term(offset, sigma_offset)
     }
+
+    /// An upper bound of [`DriftPrior::factor`] before the overlap is
+    /// grown: each term at its most lenient over matched lengths in
+    /// `length = [min, max]` and distances up to `distance`.
+    pub fn bound(
+        &self,
+        angle: f64,
+        scale: f64,
+        offset: f64,
+        length: [f64; 2],
+        distance: f64,
+    ) -> f64 {
+        let ratio = (distance / length[0].max(f64::MIN_POSITIVE))
+            .max(0.0)
+            .sqrt();
+        let sigma_angle = self.heading_floor + self.heading * ratio;
+        let sigma_scale = self.scale_floor + self.scale * ratio;
+        let sigma_offset = 0.1 * length[1] + self.position * distance;
+        let term = |x: f64, sigma: f64| 1.0 / (1.0 + (x / sigma).powi(2));
+        term(angle, sigma_angle) * term(scale.ln(), sigma_scale) * term(offset, sigma_offset)
+    }
+}
+
+/// An upper bound of [`loop_score`] given the drift prior: every other
+/// factor is at most 1, so the score is at most `sqrt(prior)`.
+pub fn loop_score_bound(prior: f64) -> f64 {
+    prior.clamp(0.0, 1.0).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The bound the online search uses to skip growing a candidate is
+        /// never below the factor of any overlap it allows.
+        #[test]
+        fn drift_prior_bound_is_above_every_allowed_factor(
+            angle in 0.0..3.2f64,
+            log_scale in -1.0..1.0f64,
+            offset in 0.0..2000.0f64,
+            l_min in 1.0..500.0f64,
+            l_extra in 0.0..2000.0f64,
+            at in 0.0..1.0f64,
+            distance in 0.0..20000.0f64,
+            at_d in 0.0..1.0f64,
+        ) {
+            let prior = DriftPrior::default();
+            let (l_max, length) = (l_min + l_extra, l_min + at * l_extra);
+            let bound = prior.bound(angle, log_scale.exp(), offset, [l_min, l_max], distance);
+            let factor = prior.factor(angle, log_scale.exp(), offset, length, at_d * distance);
+            prop_assert!(bound >= factor - 1e-12, "{bound} < {factor}");
+        }
+    }
+
+    #[test]
+    fn loop_score_never_exceeds_its_bound() {
+        for (zncc, turning, rmse, prior) in [
+            (1.0, 10.0, 0.0, 0.04),
+            (0.9, 1.0, 0.01, 0.5),
+            (0.2, 0.1, 0.1, 1.0),
+        ] {
+            let e = Evidence {
+                zncc,
+                turning,
+                relative_rmse: rmse,
+                length_ratio: 1.0,
+                coverage: 1.0,
+            };
+            assert!(
+                loop_score(&e, prior, &ScoreConfig::default()) <= loop_score_bound(prior) + 1e-12
+            );
+        }
+    }
 }

@@ -70,9 +70,9 @@ fn stream_with_batch_parameters_is_the_batch() {
 /// the whole path: total turning within 3 %, segment count within 15 %, and
 /// all but 20 % (at least one may miss) of the batch boundaries have a
 /// streamed boundary within 3 % of the path length. Measured (KITTI GT,
-/// stream/batch): 00 K 46.98/46.88 rad, 45/45 boundaries, 45 matched; 02
-/// 42.87/42.90, 31/32, 32; 05 19.27/19.23, 18/17, 17; 08 35.67/35.95,
-/// 32/34, 34; 06 6.60/6.60, 4/4, 4.
+/// stream/batch): 00 K 46.74/46.60 rad, 42/41 boundaries, 41 matched; 02
+/// 42.76/42.76, 33/33, 33; 05 19.20/19.16, 18/17, 17; 08 35.29/35.57,
+/// 31/33, 32; 06 6.56/6.56, 4/4, 3.
 #[test]
 fn stream_with_warmup_parameters_is_close_to_the_batch() {
     for name in ["00", "02", "05", "08", "06"] {

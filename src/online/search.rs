@@ -10,6 +10,8 @@ use super::correlator::{BlockCorrelator, Piece};
 use super::history::{History, SpatialIndex, Window};
 use super::scan;
 use super::{Exclusion, OnlineConfig};
+use nalgebra::Vector2;
+
 use crate::geometry::{Plane, Similarity2};
 use crate::matching::{Candidate, Orientation};
 use crate::pipeline::{verify, Verified};
@@ -323,7 +325,16 @@ pub fn verify_all(
             (sq - st).abs() > seed_len
         };
         let xy = qw.path.points(false);
-        if let Some(v) = verify::verify(&tw.path, &qw.path, &xy, &local, pc, &allowed) {
+        // Most shape candidates are look-alikes far from identity whose
+        // drift prior alone keeps them below the cut: known from the RANSAC
+        // similarity, before the growth that costs most of the time.
+        let room_len = qw.path.track.length().max(tw.path.track.length());
+        let between = (h.sig_s(q0) - h.sig_s(t1)).abs();
+        let gate = |sim: &Similarity2, pairs: &[(Vector2<f64>, Vector2<f64>)]| {
+            prior_may_pass(sim, pairs, [0.5 * seed_len, room_len], between, config)
+        };
+        if let Some(v) = verify::verify_gated(&tw.path, &qw.path, &xy, &local, pc, &allowed, &gate)
+        {
             found.extend(finish(h, &tw, &qw, &v, frame, config, false));
         }
     }
@@ -398,6 +409,44 @@ pub fn verify_all(
         f.hypothesis.rank = i + 1;
     }
     kept
+}
+
+/// Slack of [`prior_may_pass`] for what growing and refitting may still
+/// change: rotation (radians), log-scale, and offset (fraction of the
+/// longest possible overlap).
+const GATE_SLACK: (f64, f64, f64) = (5.0 * std::f64::consts::PI / 180.0, 0.05, 0.25);
+
+/// Whether a candidate with this RANSAC similarity (query -> target) and
+/// these seed pairs can still reach the score cut under the drift prior,
+/// for any overlap length in `length` and a distance between the parts up
+/// to `between` plus that length (`loop_score <= sqrt(prior)`).
+fn prior_may_pass(
+    sim: &Similarity2,
+    pairs: &[(Vector2<f64>, Vector2<f64>)],
+    length: [f64; 2],
+    between: f64,
+    config: &OnlineConfig,
+) -> bool {
+    let Some(prior) = &config.pipeline.drift_prior else {
+        return true;
+    };
+    if config.min_score <= 0.0 || pairs.is_empty() {
+        return true;
+    }
+    let (angle_slack, scale_slack, offset_slack) = GATE_SLACK;
+    let angle = sim.angle.rem_euclid(std::f64::consts::TAU);
+    let angle = angle.min(std::f64::consts::TAU - angle);
+    let mut offsets: Vec<f64> = pairs.iter().map(|(t, q)| (t - q).norm()).collect();
+    offsets.sort_by(f64::total_cmp);
+    let offset = offsets[offsets.len() / 2];
+    let bound = prior.bound(
+        (angle - angle_slack).max(0.0),
+        (sim.scale.ln().abs() - scale_slack).max(0.0).exp(),
+        (offset - offset_slack * length[1]).max(0.0),
+        length,
+        between + length[1],
+    );
+    crate::score::loop_score_bound(bound) >= config.min_score
 }
 
 /// A verified overlap as a loop hypothesis (query = later part), scored

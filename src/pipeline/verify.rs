@@ -32,6 +32,23 @@ pub fn verify(
     config: &Config,
     allowed: &dyn Fn(usize, f64) -> bool,
 ) -> Option<Verified> {
+    verify_gated(target, query, query_xy, cand, config, allowed, &|_, _| true)
+}
+
+/// [`verify`], with a `gate` that sees the RANSAC similarity (query ->
+/// target) and its sample pairs (target point, query point) and can stop
+/// before the costly growth: a caller that knows no similarity like it can
+/// score high enough says so there.
+#[allow(clippy::type_complexity)]
+pub fn verify_gated(
+    target: &PreparedPath,
+    query: &PreparedPath,
+    query_xy: &[Vector2<f64>],
+    cand: &Candidate,
+    config: &Config,
+    allowed: &dyn Fn(usize, f64) -> bool,
+    gate: &dyn Fn(&Similarity2, &[(Vector2<f64>, Vector2<f64>)]) -> bool,
+) -> Option<Verified> {
     let (ts, qs) = (&target.signature, &query.signature);
     let mut pairs = Vec::new();
     let (mut s_min, mut s_max) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -51,6 +68,9 @@ pub fn verify(
     let threshold = config.ransac_threshold * (s_max - s_min);
     let mut rng = SplitMix(0x7475_726e ^ (cand.line as u64) ^ ((cand.query[0] as u64) << 20));
     let (a_t_b, _) = ransac_similarity(&pairs, threshold, config.ransac_iterations, &mut rng)?;
+    if !gate(&a_t_b, &pairs) {
+        return None;
+    }
     let seed = [
         qs.grid[cand.seed[0]].floor() as usize,
         (qs.grid[cand.seed[1]].ceil() as usize).min(query_xy.len() - 1),

@@ -10,13 +10,22 @@ use nalgebra::Vector2;
 
 use super::ChordParam;
 
-/// Candidate bandwidths, in units of the typical pose spacing. Below one
-/// spacing matters for sparse, clean paths (1 Hz GPS at city speeds): one
-/// spacing there rounds every intersection into a wide curve, and a dense
-/// path of the same road no longer matches it (KITTI 00 ground truth thinned
-/// to 1 Hz lost its true match at 1.0 and found it at 0.7). Lower than 0.7
-/// made the online warm-up choose too little smoothing on clean prefixes.
-const BANDWIDTH_STEPS: [f64; 7] = [0.7, 1.0, 1.5, 2.0, 3.0, 4.5, 6.0];
+/// Candidate bandwidths, in units of the typical pose spacing.
+const BANDWIDTH_STEPS: [f64; 6] = [1.0, 1.5, 2.0, 3.0, 4.5, 6.0];
+/// A narrower candidate for sparse paths (see [`SPARSE_TURN`]).
+const SPARSE_STEP: f64 = 0.7;
+/// A path is sparse when it turns this much (radians) between consecutive
+/// poses at its turns (the [`SPARSE_QUANTILE`] of the per-pose turns): 1 Hz
+/// GPS at city speeds turns 30-60° per fix at an intersection, 10 Hz
+/// odometry 5°. One pose spacing of smoothing then rounds every
+/// intersection into a wide curve that no longer matches a dense path of the
+/// same road (KITTI 00 ground truth thinned to 1 Hz lost its true match at
+/// 1.0 spacings and kept it at 0.7). Dense paths keep the 1.0 floor: less
+/// smoothing there only adds curvature jitter, which moves weak segment
+/// boundaries between the two directions of travel.
+const SPARSE_TURN: f64 = 0.25;
+/// Quantile of the per-pose turns compared with [`SPARSE_TURN`].
+const SPARSE_QUANTILE: f64 = 0.95;
 /// The kernel is cut at this many bandwidths.
 const CUTOFF: f64 = 3.0;
 
@@ -28,10 +37,16 @@ pub struct Smoother {
 }
 
 impl Smoother {
-    /// The bandwidth among [`BANDWIDTH_STEPS`] with the lowest GCV score.
+    /// The bandwidth among [`BANDWIDTH_STEPS`] (and [`SPARSE_STEP`] for a
+    /// sparse path) with the lowest GCV score.
     pub fn choose(chord: &ChordParam) -> Smoother {
+        let sparse = is_sparse(&chord.points);
+        let steps = sparse
+            .then_some(SPARSE_STEP)
+            .into_iter()
+            .chain(BANDWIDTH_STEPS);
         let mut best = (f64::INFINITY, BANDWIDTH_STEPS[0]);
-        for &k in &BANDWIDTH_STEPS {
+        for k in steps {
             let sm = Smoother {
                 bandwidth: k * chord.typical_step,
             };
@@ -121,4 +136,23 @@ impl Smoother {
         }
         (w_sum > 0.0).then(|| (acc / w_sum, w_self / w_sum))
     }
+}
+
+/// True when the path turns more than [`SPARSE_TURN`] between consecutive
+/// poses at its turns (scale-free: an angle per pose).
+fn is_sparse(points: &[Vector2<f64>]) -> bool {
+    let mut turns: Vec<f64> = points
+        .windows(3)
+        .filter_map(|w| {
+            let (d0, d1) = (w[1] - w[0], w[2] - w[1]);
+            let n = d0.norm() * d1.norm();
+            (n > 0.0).then(|| (d0.perp(&d1)).atan2(d0.dot(&d1)).abs())
+        })
+        .collect();
+    if turns.is_empty() {
+        return false;
+    }
+    let k = ((turns.len() - 1) as f64 * SPARSE_QUANTILE).round() as usize;
+    let (_, q, _) = turns.select_nth_unstable_by(k, f64::total_cmp);
+    *q > SPARSE_TURN
 }
