@@ -54,7 +54,15 @@ pub struct OnlineConfig {
 impl Default for OnlineConfig {
     fn default() -> Self {
         OnlineConfig {
-            pipeline: Config::for_loops(),
+            pipeline: {
+                let mut c = Config::for_loops();
+                // Half the batch's points per grow round: the growth follows
+                // the road as well, at half the nearest-point queries (on
+                // KITTI 00 streamed: 27 -> 21 ms; detection unchanged on
+                // GT and ORB, one more strong-drift event).
+                c.grow.points_per_seed = 60;
+                c
+            },
             warmup_min_poses: 200,
             warmup_max_poses: 3000,
             plane_ratio: 25.0,

@@ -12,6 +12,8 @@ use super::scan;
 use super::{Exclusion, OnlineConfig};
 use nalgebra::Vector2;
 
+use crate::align::ransac::SplitMix;
+use crate::align::ransac_similarity;
 use crate::geometry::{Plane, Similarity2};
 use crate::matching::{Candidate, Orientation};
 use crate::pipeline::{verify, Verified};
@@ -298,6 +300,20 @@ pub fn verify_all(
         );
         // Room to grow: the query's own length on each side.
         let room = gq1 - gq0;
+        let seed_len = h.sig_s(q1) - h.sig_s(q0);
+        let room_len = {
+            let s = |g: usize| h.s[g.min(h.s.len() - 1)];
+            (s(gq1 + room) - s(gq0.saturating_sub(room)))
+                .max(s(gt1 + room) - s(gt0.saturating_sub(room)))
+        };
+        let between = (h.sig_s(q0) - h.sig_s(t1)).abs();
+        // The gate below, on the history itself with wider slack, before any
+        // window is cut (most candidates stop here).
+        if !pre_gate(h, cand, pc, |sim, pairs| {
+            prior_may_pass(sim, pairs, [0.5 * seed_len, room_len], between, config, 2.0)
+        }) {
+            continue;
+        }
         let Some(qw) = window(gq0.saturating_sub(room), gq1 + room) else {
             continue;
         };
@@ -318,7 +334,6 @@ pub fn verify_all(
         if local.query[1] >= qw.path.signature.len() {
             continue;
         }
-        let seed_len = h.sig_s(q1) - h.sig_s(q0);
         let allowed = |g: usize, v: f64| {
             let sq = h.s[g + qw.grid0];
             let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
@@ -328,10 +343,8 @@ pub fn verify_all(
         // Most shape candidates are look-alikes far from identity whose
         // drift prior alone keeps them below the cut: known from the RANSAC
         // similarity, before the growth that costs most of the time.
-        let room_len = qw.path.track.length().max(tw.path.track.length());
-        let between = (h.sig_s(q0) - h.sig_s(t1)).abs();
         let gate = |sim: &Similarity2, pairs: &[(Vector2<f64>, Vector2<f64>)]| {
-            prior_may_pass(sim, pairs, [0.5 * seed_len, room_len], between, config)
+            prior_may_pass(sim, pairs, [0.5 * seed_len, room_len], between, config, 1.0)
         };
         if let Some(v) = verify::verify_gated(&tw.path, &qw.path, &xy, &local, pc, &allowed, &gate)
         {
@@ -419,13 +432,15 @@ const GATE_SLACK: (f64, f64, f64) = (5.0 * std::f64::consts::PI / 180.0, 0.05, 0
 /// Whether a candidate with this RANSAC similarity (query -> target) and
 /// these seed pairs can still reach the score cut under the drift prior,
 /// for any overlap length in `length` and a distance between the parts up
-/// to `between` plus that length (`loop_score <= sqrt(prior)`).
+/// to `between` plus that length (`loop_score <= sqrt(prior)`), with
+/// [`GATE_SLACK`] times `widen`.
 fn prior_may_pass(
     sim: &Similarity2,
     pairs: &[(Vector2<f64>, Vector2<f64>)],
     length: [f64; 2],
     between: f64,
     config: &OnlineConfig,
+    widen: f64,
 ) -> bool {
     let Some(prior) = &config.pipeline.drift_prior else {
         return true;
@@ -433,7 +448,11 @@ fn prior_may_pass(
     if config.min_score <= 0.0 || pairs.is_empty() {
         return true;
     }
-    let (angle_slack, scale_slack, offset_slack) = GATE_SLACK;
+    let (angle_slack, scale_slack, offset_slack) = (
+        GATE_SLACK.0 * widen,
+        GATE_SLACK.1 * widen,
+        GATE_SLACK.2 * widen,
+    );
     let angle = sim.angle.rem_euclid(std::f64::consts::TAU);
     let angle = angle.min(std::f64::consts::TAU - angle);
     let mut offsets: Vec<f64> = pairs.iter().map(|(t, q)| (t - q).norm()).collect();
@@ -447,6 +466,43 @@ fn prior_may_pass(
         between + length[1],
     );
     crate::score::loop_score_bound(bound) >= config.min_score
+}
+
+/// The candidate's seed pairs and RANSAC similarity taken on the history
+/// itself (as `verify` takes them on the windows), through `gate`: true
+/// when the gate passes or no similarity is found (verification decides).
+fn pre_gate(
+    h: &History,
+    cand: &Candidate,
+    pc: &crate::pipeline::Config,
+    gate: impl Fn(&Similarity2, &[(Vector2<f64>, Vector2<f64>)]) -> bool,
+) -> bool {
+    let at = |g: f64| {
+        let i = (g.floor().max(0.0) as usize).min(h.xy.len().saturating_sub(2));
+        let f = (g - i as f64).clamp(0.0, 1.0);
+        h.point(i) * (1.0 - f) + h.point((i + 1).min(h.xy.len() - 1)) * f
+    };
+    let (mut s_min, mut s_max) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut pairs = Vec::new();
+    // A gate needs the similarity only roughly: at most 64 pairs.
+    let stride = (cand.seed[1] - cand.seed[0]).div_ceil(64).max(1);
+    for b in (cand.seed[0]..=cand.seed[1]).step_by(stride) {
+        let a = cand.target_of(b);
+        if a < 0 || a as usize >= h.sig_grid.len() {
+            continue;
+        }
+        let a = a as usize;
+        pairs.push((at(h.sig_grid[a]), at(h.sig_grid[b])));
+        let s = h.sig_s(a);
+        s_min = s_min.min(s);
+        s_max = s_max.max(s);
+    }
+    let mut rng = SplitMix(0x7072_6567 ^ (cand.line as u64) ^ ((cand.query[0] as u64) << 20));
+    let threshold = pc.ransac_threshold * (s_max - s_min);
+    match ransac_similarity(&pairs, threshold, pc.ransac_iterations, &mut rng) {
+        Some((sim, _)) => gate(&sim, &pairs),
+        None => true,
+    }
 }
 
 /// A verified overlap as a loop hypothesis (query = later part), scored
