@@ -23,7 +23,7 @@ const CHUNK: usize = 8;
 /// Consecutive segments per leaf of a [`PathIndex`]: longer runs than a
 /// whole path's keep the online history's tree within its memory budget
 /// (a tree node per 8 segments would cost about 60 bytes per pose).
-const PATH_CHUNK: usize = 32;
+const PATH_CHUNK: usize = 16;
 /// Up to this many leaves a flat scan of their boxes beats building and
 /// walking a tree.
 const FLAT_LEAVES: usize = 128;
@@ -63,29 +63,30 @@ pub struct Projection {
 #[derive(Clone, Default)]
 pub struct PathIndex {
     bvh: Bvh,
-    boxes: Vec<Aabb>,
+    /// Leaves inserted (runs indexed).
+    leaves: usize,
 }
 
 impl PathIndex {
     /// Indexes the complete runs among the first `n` vertices (`vertex(i)`
     /// gives vertex `i`) that are not indexed yet.
     pub fn extend(&mut self, n: usize, vertex: impl Fn(usize) -> Vector2<f64>) {
-        while (self.boxes.len() + 1) * PATH_CHUNK < n {
-            let leaf = self.boxes.len();
+        while (self.leaves + 1) * PATH_CHUNK < n {
+            let leaf = self.leaves;
             let aabb = run_box((leaf * PATH_CHUNK..=(leaf + 1) * PATH_CHUNK).map(&vertex));
             self.bvh.insert(aabb, leaf as u32);
-            self.boxes.push(aabb);
+            self.leaves += 1;
         }
     }
 
     /// Segments covered by leaves (the later ones are scanned directly).
     fn indexed_segments(&self) -> usize {
-        self.boxes.len() * PATH_CHUNK
+        self.leaves * PATH_CHUNK
     }
 
-    /// Bytes held (boxes and tree nodes).
+    /// Bytes held by the tree.
     pub fn bytes(&self) -> usize {
-        self.boxes.capacity() * std::mem::size_of::<Aabb>() + self.bvh.total_memory_size()
+        self.bvh.total_memory_size()
     }
 }
 
@@ -147,11 +148,12 @@ impl Polyline2 {
 
     /// Runs of segments that may hold a point within `max_dist` of `q`,
     /// with a lower bound of their squared distance, nearest first.
-    fn near_runs(&self, q: DVec2, max_dist: f64) -> Vec<(f64, Range<usize>)> {
+    fn near_runs(&self, q: DVec2, max_dist: f64, out: &mut Vec<(f64, Range<usize>)>) {
         let r = DVec2::splat(max_dist.min(f64::MAX));
         let aabb = Aabb::new(q - r, q + r);
         let max2 = max_dist * max_dist;
-        let mut near: Vec<(f64, Range<usize>)> = match &self.index {
+        out.clear();
+        match &self.index {
             Index::Own { bvh, leaves } => {
                 let leaves = leaves.get_or_init(|| {
                     let n = self.vertices.len().saturating_sub(1);
@@ -167,15 +169,13 @@ impl Polyline2 {
                     (d2, self.own_leaf(leaf as usize))
                 };
                 if leaves.len() <= FLAT_LEAVES {
-                    (0..leaves.len() as u32)
-                        .map(run)
-                        .filter(|r| r.0 <= max2)
-                        .collect()
+                    out.extend((0..leaves.len() as u32).map(run).filter(|r| r.0 <= max2));
                 } else {
-                    bvh.get_or_init(|| Bvh::from_leaves(BvhBuildStrategy::Binned, leaves))
-                        .intersect_aabb(&aabb)
-                        .map(run)
-                        .collect()
+                    out.extend(
+                        bvh.get_or_init(|| Bvh::from_leaves(BvhBuildStrategy::Binned, leaves))
+                            .intersect_aabb(&aabb)
+                            .map(run),
+                    );
                 }
             }
             Index::Shared { index, first } => {
@@ -184,26 +184,29 @@ impl Polyline2 {
                 let local = |g: Range<usize>| {
                     g.start.max(first) - first..g.end.min(last).saturating_sub(first)
                 };
-                let mut near: Vec<(f64, Range<usize>)> = index
-                    .bvh
-                    .intersect_aabb(&aabb)
-                    .map(|leaf| {
-                        let leaf = leaf as usize;
-                        let d2 = box_dist2(&index.boxes[leaf], q);
-                        (d2, local(leaf * PATH_CHUNK..(leaf + 1) * PATH_CHUNK))
-                    })
-                    .filter(|r| !r.1.is_empty())
-                    .collect();
+                out.extend(
+                    index
+                        .bvh
+                        .intersect_aabb(&aabb)
+                        .map(|leaf| {
+                            let leaf = leaf as usize;
+                            // The leaf's own box, kept by the tree.
+                            let d2 = index
+                                .bvh
+                                .leaf_node(leaf as u32)
+                                .map_or(0.0, |n| box_dist2(&n.aabb(), q));
+                            (d2, local(leaf * PATH_CHUNK..(leaf + 1) * PATH_CHUNK))
+                        })
+                        .filter(|r| !r.1.is_empty()),
+                );
                 // The newest segments, not in a complete run yet.
                 let tail = local(index.indexed_segments().max(first)..last);
                 if !tail.is_empty() {
-                    near.push((0.0, tail));
+                    out.push((0.0, tail));
                 }
-                near
             }
-        };
-        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        near
+        }
+        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     }
 
     /// Nearest point to `p` (the whole polyline searched).
@@ -223,11 +226,18 @@ impl Polyline2 {
         if self.vertices.len() < 2 {
             return None;
         }
+        thread_local! {
+            /// The runs buffer, reused: this runs for every projected point.
+            static NEAR: std::cell::Cell<Vec<(f64, Range<usize>)>> =
+                const { std::cell::Cell::new(Vec::new()) };
+        }
+        let mut near = NEAR.take();
+        self.near_runs(DVec2::new(p.x, p.y), max_dist, &mut near);
         let max2 = max_dist * max_dist;
         let mut best: Option<(f64, usize, f64)> = None;
         // Runs nearest first: the scan stops at the first run whose box is
         // farther than the best point found.
-        for (box2, run) in self.near_runs(DVec2::new(p.x, p.y), max_dist) {
+        for (box2, run) in near.drain(..) {
             if best.is_some_and(|b| b.0 < box2) {
                 break;
             }
@@ -250,6 +260,7 @@ impl Polyline2 {
                 best = Some((d2, i, t));
             }
         }
+        NEAR.set(near);
         best.map(|(d2, i, t)| {
             let (a0, a1) = (self.arc[i], self.arc[i + 1]);
             Projection {
