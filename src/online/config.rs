@@ -36,6 +36,10 @@ pub struct OnlineConfig {
     pub min_score: f64,
     /// Shape candidates verified per finalised segment (strongest first).
     pub max_verify: usize,
+    /// Skip growing a shape candidate whose drift-prior bound cannot reach
+    /// `min_score` (the same candidates are emitted, at a quarter of the
+    /// time; off only to check that claim).
+    pub prior_gate: bool,
     /// Also search near the current position in the map's own frame.
     pub proximity: bool,
     /// Between segments, probe the proximity every this many new track
@@ -70,6 +74,7 @@ impl Default for OnlineConfig {
             top_k: 3,
             min_score: 0.3,
             max_verify: 8,
+            prior_gate: true,
             proximity: true,
             probe_every: 48,
             queue_capacity: 4,

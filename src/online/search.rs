@@ -445,7 +445,7 @@ fn prior_may_pass(
     let Some(prior) = &config.pipeline.drift_prior else {
         return true;
     };
-    if config.min_score <= 0.0 || pairs.is_empty() {
+    if !config.prior_gate || config.min_score <= 0.0 || pairs.is_empty() {
         return true;
     }
     let (angle_slack, scale_slack, offset_slack) = (
