@@ -316,9 +316,9 @@ mod tests {
             mono: Sourced::default(),
             gps: None,
         };
-        let frame = super::super::similarity::Similarity {
+        let frame = crate::geometry::Similarity3 {
             scale: 1.0,
-            rotation: nalgebra::UnitQuaternion::from_euler_angles(1.2, -0.3, 0.5),
+            rotation: *nalgebra::Rotation3::from_euler_angles(1.2, -0.3, 0.5).matrix(),
             translation: Vector3::new(10.0, -20.0, 5.0),
         };
         let rows: Vec<_> = (0..200)

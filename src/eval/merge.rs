@@ -204,7 +204,7 @@ pub fn positive_case(
     let rank1_correct = verdicts.first().is_some_and(|v| v.correct);
     let (mut rot_err_deg, mut scale_err_pct) = (None, None);
     if let (true, Some(best)) = (rank1_correct, &best) {
-        let r_true = best.rotation.to_rotation_matrix().into_inner();
+        let r_true = best.rotation;
         rot_err_deg = Some(rotation_error_deg(&hyps[0].rotation, &r_true));
         scale_err_pct = Some(scale_error_pct(hyps[0].scale, best.scale));
     }

@@ -1,46 +1,12 @@
 //! Similarity transforms for the evaluation: the random frame changes applied
 //! to test paths, the least-squares (Umeyama) fit used to recover the true
 //! similarity of a noisy source, and the errors between two similarities.
+//! All are [`Similarity3`] (`p_dst = s R p_src + t`), the library's own.
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector4};
 use rand::Rng;
 
-/// A similarity `p_dst = scale * rotation * p_src + translation`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Similarity {
-    /// Uniform scale (> 0).
-    pub scale: f64,
-    /// Proper rotation.
-    pub rotation: UnitQuaternion<f64>,
-    /// Translation, in the destination's units.
-    pub translation: Vector3<f64>,
-}
-
-impl Similarity {
-    /// The identity.
-    pub fn identity() -> Self {
-        Similarity {
-            scale: 1.0,
-            rotation: UnitQuaternion::identity(),
-            translation: Vector3::zeros(),
-        }
-    }
-
-    /// Maps a point of the source frame into the destination frame.
-    pub fn apply(&self, p: &Vector3<f64>) -> Vector3<f64> {
-        self.scale * (self.rotation * p) + self.translation
-    }
-
-    /// The inverse map: `p_src = (rotation^T (p_dst - translation)) / scale`.
-    pub fn inverse(&self) -> Similarity {
-        let rotation = self.rotation.inverse();
-        Similarity {
-            scale: 1.0 / self.scale,
-            translation: -(rotation * self.translation) / self.scale,
-            rotation,
-        }
-    }
-}
+use crate::geometry::Similarity3;
 
 /// One standard normal sample (Box-Muller), so no extra distribution crate
 /// is needed.
@@ -64,15 +30,15 @@ pub fn random_rotation(rng: &mut impl Rng) -> UnitQuaternion<f64> {
 /// A random similarity: scale log-uniform in [0.01, 100], rotation uniform,
 /// translation uniform in a cube of half-side `extent` (source units) times
 /// the scale, so the translation is comparable to the path's own size.
-pub fn random_similarity(rng: &mut impl Rng, extent: f64) -> Similarity {
+pub fn random_similarity(rng: &mut impl Rng, extent: f64) -> Similarity3 {
     let scale = 10f64.powf(rng.random_range(-2.0..=2.0));
-    let rotation = random_rotation(rng);
+    let rotation = random_rotation(rng).to_rotation_matrix().into_inner();
     let translation = Vector3::new(
         rng.random_range(-1.0..=1.0),
         rng.random_range(-1.0..=1.0),
         rng.random_range(-1.0..=1.0),
     ) * (extent * scale);
-    Similarity {
+    Similarity3 {
         scale,
         rotation,
         translation,
@@ -84,7 +50,7 @@ pub fn random_similarity(rng: &mut impl Rng, extent: f64) -> Similarity {
 /// `R = U S V^T` (`S` flips the last axis when `det(U V^T) < 0`),
 /// `s = tr(D S) / var(src)`, `t = mean(dst) - s R mean(src)`.
 /// `None` for fewer than 3 pairs or a degenerate (single-point) source.
-pub fn umeyama(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<Similarity> {
+pub fn umeyama(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<Similarity3> {
     let n = src.len();
     if n < 3 || dst.len() != n {
         return None;
@@ -109,13 +75,10 @@ pub fn umeyama(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<Similarity>
     if (u * v_t).determinant() < 0.0 {
         signs[2] = -1.0;
     }
-    let rotation_m = u * Matrix3::from_diagonal(&signs) * v_t;
+    let rotation = u * Matrix3::from_diagonal(&signs) * v_t;
     let scale = svd.singular_values.dot(&signs) / var_src;
-    let rotation = UnitQuaternion::from_rotation_matrix(
-        &nalgebra::Rotation3::from_matrix_unchecked(rotation_m),
-    );
     let translation = mu_dst - scale * (rotation * mu_src);
-    Some(Similarity {
+    Some(Similarity3 {
         scale,
         rotation,
         translation,
@@ -178,11 +141,7 @@ mod tests {
             let dst: Vec<_> = src.iter().map(|p| truth.apply(p)).collect();
             let fit = umeyama(&src, &dst).unwrap();
             assert!(scale_error_pct(fit.scale, truth.scale) < 1e-8);
-            let (r_fit, r_true) = (
-                fit.rotation.to_rotation_matrix().into_inner(),
-                truth.rotation.to_rotation_matrix().into_inner(),
-            );
-            assert!(rotation_error_deg(&r_fit, &r_true) < 1e-5);
+            assert!(rotation_error_deg(&fit.rotation, &truth.rotation) < 1e-5);
             let back = truth.inverse();
             assert!((back.apply(&dst[3]) - src[3]).norm() < 1e-6 * (1.0 + src[3].norm()));
         }
