@@ -58,6 +58,14 @@ impl History {
         Vector2::new(p[0] as f64, p[1] as f64)
     }
 
+    /// Track position at a fractional sample index (linear in between).
+    pub fn point_at(&self, g: f64) -> Vector2<f64> {
+        let last = self.xy.len().saturating_sub(1);
+        let i = (g.floor().max(0.0) as usize).min(last.saturating_sub(1));
+        let f = (g - i as f64).clamp(0.0, 1.0);
+        self.point(i) * (1.0 - f) + self.point((i + 1).min(last)) * f
+    }
+
     /// Arc length at signature sample `j`.
     pub fn sig_s(&self, j: usize) -> f64 {
         Track::interp(&self.s, self.sig_grid[j])
@@ -84,32 +92,32 @@ impl History {
             + self.index.bytes()
     }
 
-    /// Keyframe ids of poses in `[p0, p1]`, at most `max` spread evenly.
-    pub fn keyframes_in(&self, range: [usize; 2], max: usize) -> Vec<u64> {
+    /// The keyframes of poses in `[p0, p1]`.
+    fn keyframes_within(&self, range: [usize; 2]) -> &[(u32, u64)] {
         let lo = self
             .keyframes
             .partition_point(|k| (k.0 as usize) < range[0]);
         let hi = self
             .keyframes
             .partition_point(|k| (k.0 as usize) <= range[1]);
-        let n = hi - lo;
+        &self.keyframes[lo..hi.max(lo)]
+    }
+
+    /// Keyframe ids of poses in `[p0, p1]`, at most `max` spread evenly.
+    pub fn keyframes_in(&self, range: [usize; 2], max: usize) -> Vec<u64> {
+        let within = self.keyframes_within(range);
+        let n = within.len();
         if n <= max {
-            return self.keyframes[lo..hi].iter().map(|k| k.1).collect();
+            return within.iter().map(|k| k.1).collect();
         }
         (0..max)
-            .map(|i| self.keyframes[lo + i * (n - 1) / (max - 1).max(1)].1)
+            .map(|i| within[i * (n - 1) / (max - 1).max(1)].1)
             .collect()
     }
 
     /// The keyframe nearest to `pose` within `range`: (id, pose index).
     pub fn keyframe_near(&self, pose: usize, range: [usize; 2]) -> Option<(u64, usize)> {
-        let lo = self
-            .keyframes
-            .partition_point(|k| (k.0 as usize) < range[0]);
-        let hi = self
-            .keyframes
-            .partition_point(|k| (k.0 as usize) <= range[1]);
-        self.keyframes[lo..hi]
+        self.keyframes_within(range)
             .iter()
             .min_by_key(|k| (k.0 as usize).abs_diff(pose))
             .map(|k| (k.1, k.0 as usize))

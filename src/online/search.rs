@@ -477,11 +477,6 @@ fn pre_gate(
     pc: &crate::pipeline::Config,
     gate: impl Fn(&Similarity2, &[(Vector2<f64>, Vector2<f64>)]) -> bool,
 ) -> bool {
-    let at = |g: f64| {
-        let i = (g.floor().max(0.0) as usize).min(h.xy.len().saturating_sub(2));
-        let f = (g - i as f64).clamp(0.0, 1.0);
-        h.point(i) * (1.0 - f) + h.point((i + 1).min(h.xy.len() - 1)) * f
-    };
     let (mut s_min, mut s_max) = (f64::INFINITY, f64::NEG_INFINITY);
     let mut pairs = Vec::new();
     // A gate needs the similarity only roughly: at most 64 pairs.
@@ -492,7 +487,7 @@ fn pre_gate(
             continue;
         }
         let a = a as usize;
-        pairs.push((at(h.sig_grid[a]), at(h.sig_grid[b])));
+        pairs.push((h.point_at(h.sig_grid[a]), h.point_at(h.sig_grid[b])));
         let s = h.sig_s(a);
         s_min = s_min.min(s);
         s_max = s_max.max(s);

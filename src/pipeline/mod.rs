@@ -103,13 +103,7 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
             .map(|v| to_hypothesis(pa, pb, &v, score(&v.evidence, &config.score), false))
         }
     });
-    rank::rank(
-        hypotheses
-            .into_iter()
-            .filter(|h| h.score >= config.min_score)
-            .collect(),
-        config.top_k,
-    )
+    rank::rank(hypotheses, config.top_k, config.min_score)
 }
 
 /// One verification to run.
@@ -216,13 +210,7 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
         };
         hypotheses.push(Hypothesis { score: s, ..h });
     }
-    rank::rank(
-        hypotheses
-            .into_iter()
-            .filter(|h| h.score >= config.min_score)
-            .collect(),
-        config.top_k,
-    )
+    rank::rank(hypotheses, config.top_k, config.min_score)
 }
 
 /// Median distance in the map between corresponding poses of a loop.

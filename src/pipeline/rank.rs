@@ -1,4 +1,4 @@
-//! Ranking: sort by score, drop duplicates (both ranges mostly shared), keep
+//! Ranking: drop weak ones, sort by score, drop duplicates (both ranges mostly shared), keep
 //! the top k.
 
 use crate::Hypothesis;
@@ -15,8 +15,10 @@ pub fn range_overlap(a: [usize; 2], b: [usize; 2]) -> f64 {
     inter / shorter
 }
 
-/// Sorts, de-duplicates and keeps the `top_k` best, ranks from 1.
-pub fn rank(mut all: Vec<Hypothesis>, top_k: usize) -> Vec<Hypothesis> {
+/// Drops those scoring below `min_score`, sorts, de-duplicates and keeps
+/// the `top_k` best, ranks from 1.
+pub fn rank(mut all: Vec<Hypothesis>, top_k: usize, min_score: f64) -> Vec<Hypothesis> {
+    all.retain(|h| h.score >= min_score);
     all.sort_by(|x, y| y.score.total_cmp(&x.score));
     let mut kept: Vec<Hypothesis> = Vec::new();
     for h in all {
