@@ -87,6 +87,12 @@ impl Config {
         // revisit bent by drift fits one similarity less tightly.
         c.score.residual_scale = 0.006;
         c.score.coverage_power = 0.0;
+        // A revisit of a drifting map is bent: the prior's 4° of heading
+        // drift per matched length puts the two parts up to about 2 % of
+        // that length apart beyond the matching noise, so growth keeps
+        // points within 5 % (not 3 %) on the first round. On the strong-drift
+        // loops of KITTI (5 seeds): rank-1 +5..20 points, events +5..9.
+        c.grow.tolerance = 0.05;
         c
     }
 }
