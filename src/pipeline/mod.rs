@@ -112,6 +112,12 @@ enum Job<'a> {
     Turns(&'a crate::matching::turns::TurnProposal),
 }
 
+/// One loop verification to run.
+enum LoopJob<'a> {
+    Zncc(&'a crate::matching::Candidate),
+    Proximity(&'a proximity::ProximitySeed),
+}
+
 /// `f` over `items` on every available core (scoped threads; results in
 /// order, `None`s dropped).
 fn parallel_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> Option<R> + Sync) -> Vec<R> {
@@ -165,29 +171,47 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     let candidates = search(&mut correlator, &sig.value, &ranges, &query, clear);
     let xy = pa.points(false);
     let track = &pa.track;
-    let mut verified = Vec::new();
-    // Shape candidates: grown points stay away from themselves along the
-    // path by at least the seed's own length.
-    for cand in candidates.iter().take(config.max_candidates) {
-        let seed_len = sig.s[cand.seed[1]] - sig.s[cand.seed[0]];
-        let allowed = |g: usize, v: f64| (track.s[g] - Track::interp(&track.s, v)).abs() > seed_len;
-        verified.extend(verify::verify_best(pa, pa, &xy, cand, config, &allowed).map(|(v, _)| v));
-    }
-    // Proximity seeds: the map's own frame, starting from the identity.
-    for seed in proximity::proximity_seeds(pa) {
-        let seed_len = track.s[seed.query[1]] - track.s[seed.query[0]];
-        let allowed = |g: usize, v: f64| (track.s[g] - Track::interp(&track.s, v)).abs() > seed_len;
-        verified.extend(verify::verify_seeded(
-            pa,
-            pa,
-            &xy,
-            seed.query,
-            Similarity2::identity(),
-            false,
-            config,
-            &allowed,
-        ));
-    }
+    // Grown points stay away from themselves along the path by at least the
+    // seed's own length.
+    let away = |seed_len: f64| {
+        move |g: usize, v: f64| (track.s[g] - Track::interp(&track.s, v)).abs() > seed_len
+    };
+    // Proximity seeds: the map's own frame, starting from the identity; or,
+    // where only the drift prior's wider radius finds the earlier part,
+    // from the similarity of the probe points onto their nearest points.
+    let drift = config.drift_prior.map_or(0.0, |p| p.position);
+    let seeds = proximity::proximity_seeds(pa, drift);
+    let jobs: Vec<LoopJob> = candidates
+        .iter()
+        .take(config.max_candidates)
+        .map(LoopJob::Zncc)
+        .chain(seeds.iter().map(LoopJob::Proximity))
+        .collect();
+    // Shape candidates and proximity seeds verified the same way, on every
+    // core.
+    let verified = parallel_map(&jobs, |job| match job {
+        LoopJob::Zncc(cand) => {
+            let seed_len = sig.s[cand.seed[1]] - sig.s[cand.seed[0]];
+            verify::verify_best(pa, pa, &xy, cand, config, &away(seed_len)).map(|(v, _)| v)
+        }
+        LoopJob::Proximity(seed) => {
+            let start = match seed.drifted {
+                true => Similarity2::fit(&seed.pairs, None).unwrap_or_else(Similarity2::identity),
+                false => Similarity2::identity(),
+            };
+            let seed_len = track.s[seed.query[1]] - track.s[seed.query[0]];
+            verify::verify_seeded(
+                pa,
+                pa,
+                &xy,
+                seed.query,
+                start,
+                false,
+                config,
+                &away(seed_len),
+            )
+        }
+    });
     let mut hypotheses = Vec::new();
     for v in &verified {
         let h = to_hypothesis(pa, pa, v, 0.0, true);

@@ -6,16 +6,29 @@
 //! position" search a SLAM engineer would try first. turnprint must never do
 //! worse than it, so its seeds go through the same verification as the
 //! shape candidates (starting from the identity) and compete on score.
+//!
+//! Where a map has drifted, the earlier pass lies farther away the longer
+//! the path between the two: a window that finds nothing near gets a second
+//! probe whose radius grows with that distance, by the drift prior's
+//! position rate (the radius the loop score itself tolerates). Its seed
+//! starts from the similarity of the probe points onto their nearest
+//! points, since the identity is then off by the drift. On the KITTI
+//! monocular estimate of 08, which ORB-SLAM2 did not close, this finds
+//! both revisits.
 
 use super::PreparedPath;
 
 /// A query grid range and the target grid index its middle is nearest to.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct ProximitySeed {
     /// Inclusive query grid range.
     pub query: [usize; 2],
     /// Nearest earlier-or-later grid index outside the neighbourhood.
     pub target: usize,
+    /// Probe points and their nearest points of the other part (target, query).
+    pub pairs: Vec<(nalgebra::Vector2<f64>, nalgebra::Vector2<f64>)>,
+    /// Found only with the drifting map's wider radius.
+    pub drifted: bool,
 }
 
 /// Probe points per window.
@@ -24,8 +37,9 @@ const PROBES: usize = 8;
 /// part is below this fraction of the window's length.
 const NEAR_FRACTION: f64 = 0.25;
 
-/// Seeds from windows of two consecutive segments.
-pub fn proximity_seeds(path: &PreparedPath) -> Vec<ProximitySeed> {
+/// Seeds from windows of two consecutive segments; `drift` is the position
+/// drift per unit of path length between the parts (0: consistent map only).
+pub fn proximity_seeds(path: &PreparedPath, drift: f64) -> Vec<ProximitySeed> {
     let track = &path.track;
     let sig = &path.signature;
     let stride = 2;
@@ -37,35 +51,69 @@ pub fn proximity_seeds(path: &PreparedPath) -> Vec<ProximitySeed> {
             continue;
         }
         let length = track.s[g1] - track.s[g0];
-        // Away from itself by at least its own length, along the path.
-        let mut dists = Vec::with_capacity(PROBES);
-        let mut targets = Vec::with_capacity(PROBES);
-        for k in 0..PROBES {
-            let g = g0 + (k * (g1 - g0)) / (PROBES - 1);
-            let (p, s) = (track.xy[g], track.s[g]);
-            let mut best = (f64::INFINITY, 0usize);
-            let mut t = 0;
-            while t < track.len() {
-                if (track.s[t] - s).abs() > length {
-                    let d = (track.xy[t] - p).norm_squared();
-                    if d < best.0 {
-                        best = (d, t);
-                    }
-                }
-                t += stride;
-            }
-            dists.push(best.0.sqrt());
-            targets.push(best.1);
-        }
-        let mut sorted = dists.clone();
-        sorted.sort_by(f64::total_cmp);
-        if sorted[PROBES / 2] < NEAR_FRACTION * length {
-            targets.sort_unstable();
-            seeds.push(ProximitySeed {
-                query: [g0, g1],
-                target: targets[PROBES / 2],
-            });
-        }
+        seeds.extend(probe(path, [g0, g1], length, drift, stride));
     }
     seeds
+}
+
+/// The probe of window `g` (grid range of length `length`): each of
+/// [`PROBES`] points' nearest other point at least `length` away along the
+/// path, by distance over a radius: `NEAR_FRACTION * length` in a
+/// consistent map, plus `drift * (distance along the path)` in a drifting
+/// one. A seed when the median is within the radius, the consistent map
+/// first (one scan computes both).
+fn probe(
+    path: &PreparedPath,
+    g: [usize; 2],
+    length: f64,
+    drift: f64,
+    stride: usize,
+) -> Option<ProximitySeed> {
+    let track = &path.track;
+    // Per probe: (radius-relative distance, target) for the consistent and
+    // the drifting map.
+    let mut near = [[(f64::INFINITY, 0usize); PROBES]; 2];
+    let mut probes = [nalgebra::Vector2::zeros(); PROBES];
+    for k in 0..PROBES {
+        let gk = g[0] + (k * (g[1] - g[0])) / (PROBES - 1);
+        let (p, s) = (track.xy[gk], track.s[gk]);
+        probes[k] = p;
+        let mut t = 0;
+        while t < track.len() {
+            let between = (track.s[t] - s).abs();
+            if between > length {
+                let d = (track.xy[t] - p).norm();
+                for (map, radius) in [
+                    NEAR_FRACTION * length,
+                    NEAR_FRACTION * length + drift * between,
+                ]
+                .into_iter()
+                .enumerate()
+                {
+                    if d < near[map][k].0 * radius {
+                        near[map][k] = (d / radius, t);
+                    }
+                }
+            }
+            t += stride;
+        }
+    }
+    let maps = if drift > 0.0 { 2 } else { 1 };
+    (0..maps).find_map(|map| {
+        let mut dists: Vec<f64> = near[map].iter().map(|n| n.0).collect();
+        dists.sort_by(f64::total_cmp);
+        if dists[PROBES / 2] >= 1.0 {
+            return None;
+        }
+        let mut targets: Vec<usize> = near[map].iter().map(|n| n.1).collect();
+        targets.sort_unstable();
+        Some(ProximitySeed {
+            query: g,
+            target: targets[PROBES / 2],
+            pairs: (0..PROBES)
+                .map(|k| (track.xy[near[map][k].1], probes[k]))
+                .collect(),
+            drifted: map == 1,
+        })
+    })
 }
