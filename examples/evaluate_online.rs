@@ -16,6 +16,8 @@
 //! the ground truth with added drift (heading random walk and scale drift),
 //! `strong` the ground truth through the evaluation's strong drift model
 //! (`eval::drift::DriftModel::strong`, seed `SEED`, default 1).
+//! `MIN_SCORE=x` sets `OnlineConfig::min_score`; `DRIFT_PROBE=1` turns on
+//! `OnlineConfig::drift_probe`.
 
 use std::path::Path;
 
@@ -70,6 +72,7 @@ fn main() {
         if let Ok(v) = std::env::var("MIN_SCORE") {
             config.min_score = v.parse().expect("MIN_SCORE");
         }
+        config.drift_probe = std::env::var("DRIFT_PROBE").is_ok_and(|v| v == "1");
         let mut det = Detector::new(config, Overflow::Block);
         let mut cands: Vec<CandidateEvent> = Vec::new();
         let mut lat = Vec::with_capacity(input.len());

@@ -42,6 +42,13 @@ pub struct OnlineConfig {
     pub prior_gate: bool,
     /// Also search near the current position in the map's own frame.
     pub proximity: bool,
+    /// Where the proximity probe finds nothing near, probe again with a
+    /// radius growing with the path between the two parts (the drift
+    /// prior's position rate), for maps that drift strongly. Off by default:
+    /// on KITTI it finds 2 more of 11 strong-drift events on average, but
+    /// on consistent maps it adds false candidates (share 1.00 -> 0.96 on
+    /// GT, 0.88 on ORB-SLAM2) and costs about 15 % of the throughput.
+    pub drift_probe: bool,
     /// Between segments, probe the proximity every this many new track
     /// samples (half typical steps), over the newest twice as many.
     pub probe_every: usize,
@@ -81,10 +88,23 @@ impl Default for OnlineConfig {
             max_verify: 8,
             prior_gate: true,
             proximity: true,
+            drift_probe: false,
             probe_every: 48,
             queue_capacity: 4,
             jump_factor: 25.0,
             block_len: 2048,
+        }
+    }
+}
+
+impl OnlineConfig {
+    /// Growth of the proximity probe's radius per unit of path between the
+    /// two parts: the drift prior's position rate with [`Self::drift_probe`]
+    /// (else 0: the consistent map's probe only).
+    pub fn drift_radius(&self) -> f64 {
+        match self.drift_probe {
+            true => self.pipeline.drift_prior.map_or(0.0, |p| p.position),
+            false => 0.0,
         }
     }
 }

@@ -193,8 +193,42 @@ impl History {
 pub struct SpatialIndex {
     cell: f64,
     every: usize,
-    cells: std::collections::HashMap<(i32, i32), Vec<u32>>,
+    cells: std::collections::HashMap<(i32, i32), Vec<u32>, CellHash>,
     indexed: usize,
+}
+
+/// Hashing of cell keys: the probes look up hundreds of cells per call, and
+/// the default SipHash (built against flooding, not needed for grid cells
+/// of one's own path) took most of that time.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CellHash;
+
+impl std::hash::BuildHasher for CellHash {
+    type Hasher = CellHasher;
+    fn build_hasher(&self) -> CellHasher {
+        CellHasher(0)
+    }
+}
+
+/// Multiply-rotate hashing of the two cell coordinates.
+#[derive(Debug, Clone, Copy)]
+pub struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(u64::from(*b));
+        }
+    }
+    fn write_i32(&mut self, i: i32) {
+        self.write_u64(i as u32 as u64);
+    }
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(29) ^ i).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
 }
 
 impl SpatialIndex {
@@ -251,6 +285,63 @@ impl SpatialIndex {
                     let d = (h.point(i) - p).norm();
                     if d <= radius && best.is_none_or(|b| d < b.0) && allowed(i) {
                         best = Some((d, i));
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    /// For each of `points`, the indexed sample minimising
+    /// `distance / radius(k, t)` among those within `max_radius` of it that
+    /// pass `allowed(k, t)`, with that ratio: the drifting map's probe, whose
+    /// radius grows with the path between the two parts. One scan of the
+    /// cells around all the points (at most `max_cells` cells beyond their
+    /// box) serves every point.
+    pub fn nearest_scaled<const N: usize>(
+        &self,
+        h: &History,
+        points: &[Vector2<f64>; N],
+        max_radius: f64,
+        max_cells: i32,
+        radius: impl Fn(usize, usize) -> f64,
+        allowed: impl Fn(usize, usize) -> bool,
+    ) -> [Option<(f64, usize)>; N] {
+        let mut best = [None; N];
+        if N == 0 {
+            return best;
+        }
+        let r = ((max_radius / self.cell).ceil() as i32).clamp(0, max_cells);
+        let keys = points.map(|p| self.key(&p));
+        let (x0, x1) = (
+            keys.iter().map(|k| k.0).min(),
+            keys.iter().map(|k| k.0).max(),
+        );
+        let (y0, y1) = (
+            keys.iter().map(|k| k.1).min(),
+            keys.iter().map(|k| k.1).max(),
+        );
+        let (Some(x0), Some(x1), Some(y0), Some(y1)) = (x0, x1, y0, y1) else {
+            return best;
+        };
+        let max2 = max_radius * max_radius;
+        for cx in x0 - r..=x1 + r {
+            for cy in y0 - r..=y1 + r {
+                let Some(list) = self.cells.get(&(cx, cy)) else {
+                    continue;
+                };
+                for &i in list {
+                    let i = i as usize;
+                    let q = h.point(i);
+                    for (k, p) in points.iter().enumerate() {
+                        let d2 = (q - p).norm_squared();
+                        if d2 > max2 || !allowed(k, i) {
+                            continue;
+                        }
+                        let ratio = d2.sqrt() / radius(k, i);
+                        if best[k].is_none_or(|b: (f64, usize)| ratio < b.0) {
+                            best[k] = Some((ratio, i));
+                        }
                     }
                 }
             }

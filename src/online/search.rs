@@ -16,6 +16,7 @@ use crate::align::ransac::SplitMix;
 use crate::align::ransac_similarity;
 use crate::geometry::{Plane, Similarity2};
 use crate::matching::{Candidate, Orientation};
+use crate::pipeline::proximity::PROBES;
 use crate::pipeline::{verify, Verified};
 use crate::score::{loop_score, score};
 use crate::Hypothesis;
@@ -23,12 +24,6 @@ use crate::Hypothesis;
 /// Below this fraction of the history's variance a window is flat (as in
 /// the batch correlator).
 const FLAT_FRACTION: f64 = 1e-4;
-/// Probe points of a proximity window (as in the batch proximity seeds).
-const PROBES: usize = 8;
-/// A window revisits a place when its probes' median distance is below this
-/// fraction of its length (as in the batch proximity seeds).
-const NEAR_FRACTION: f64 = 0.25;
-
 /// Track parameters the search needs.
 #[derive(Debug, Clone, Copy)]
 pub struct Frame {
@@ -202,6 +197,24 @@ impl Searcher {
     }
 }
 
+/// A proximity seed: the query's track samples, the earlier sample its
+/// middle is nearest to, and the similarity (query onto target) to start
+/// growing from.
+#[derive(Debug, Clone)]
+pub struct ProbeSeed {
+    /// Inclusive query track range.
+    pub query: [usize; 2],
+    /// Nearest earlier track sample.
+    pub target: usize,
+    /// Start of the growth: the identity in a consistent map, the probes'
+    /// fit onto their nearest points in a drifting one.
+    pub start: Similarity2,
+    /// Found only with the drifting map's wider radius.
+    pub drifted: bool,
+    /// Probe points and their nearest earlier points (target, query).
+    pub pairs: Vec<(Vector2<f64>, Vector2<f64>)>,
+}
+
 /// Proximity seed of the newest two segments (as the batch proximity
 /// seeds), or, for a periodic probe (`segments == false`), of the newest
 /// `window` track samples.
@@ -210,7 +223,8 @@ pub fn proximity_seed(
     spatial: &SpatialIndex,
     segments: bool,
     window: usize,
-) -> Option<([usize; 2], usize)> {
+    drift: f64,
+) -> Option<ProbeSeed> {
     let last = h.xy.len().checked_sub(1)?;
     let nb = h.bounds.len();
     let g0 = if segments && nb >= 3 {
@@ -218,44 +232,88 @@ pub fn proximity_seed(
     } else {
         last.saturating_sub(window)
     };
-    probe(h, spatial, g0, last)
+    probe(h, spatial, g0, last, drift)
 }
+
+/// Cells (of the spatial index) the drifting map's probe looks across at
+/// most: its radius stops growing past 512 typical steps.
+const DRIFT_CELLS: i32 = 8;
 
 /// The probe of track samples `[g0, g1]`: the median nearest earlier
 /// sample (at least the window's own length back along the path) when the
-/// probes' median distance is below [`NEAR_FRACTION`] of the window length.
+/// probes' median distance is within the radius of
+/// [`crate::pipeline::proximity::radius`]: the consistent map's first,
+/// else (`drift > 0`) the drifting map's, as the batch proximity seeds.
 pub fn probe(
     h: &History,
     spatial: &SpatialIndex,
     g0: usize,
     g1: usize,
-) -> Option<([usize; 2], usize)> {
+    drift: f64,
+) -> Option<ProbeSeed> {
+    use crate::pipeline::proximity::radius;
     if g1 <= g0 + PROBES {
         return None;
     }
     let length = h.s[g1] - h.s[g0];
-    let radius = NEAR_FRACTION * length;
-    let mut dists = Vec::with_capacity(PROBES);
-    let mut targets = Vec::with_capacity(PROBES);
-    for k in 0..PROBES {
+    let mut ratios = [f64::INFINITY; PROBES];
+    let mut near = [(Vector2::zeros(), Vector2::zeros(), 0usize); PROBES];
+    let probes: [(Vector2<f64>, f64, usize); PROBES] = std::array::from_fn(|k| {
         let g = g0 + (k * (g1 - g0)) / (PROBES - 1);
-        let (p, s) = (h.point(g), h.s[g]);
-        match spatial.nearest(h, &p, radius, |t| (h.s[t] - s).abs() > length && t < g0) {
-            Some((d, t)) => {
-                dists.push(d);
-                targets.push(t);
+        (h.point(g), h.s[g], g)
+    });
+    let allowed = |k: usize, t: usize| (h.s[t] - probes[k].1).abs() > length && t < g0;
+    for map_drift in [0.0, drift] {
+        let found_near: [Option<(f64, usize)>; PROBES] = if map_drift > 0.0 {
+            // Every earlier part lies at most the whole path back.
+            let max_radius = radius(length, map_drift, h.s[g1]);
+            spatial.nearest_scaled(
+                h,
+                &probes.map(|p| p.0),
+                max_radius,
+                DRIFT_CELLS,
+                |k, t| radius(length, map_drift, (probes[k].1 - h.s[t]).abs()),
+                allowed,
+            )
+        } else {
+            let r = radius(length, 0.0, 0.0);
+            std::array::from_fn(|k| {
+                spatial
+                    .nearest(h, &probes[k].0, r, |t| allowed(k, t))
+                    .map(|(d, t)| (d / r, t))
+            })
+        };
+        let mut found = 0;
+        for (k, best) in found_near.iter().enumerate() {
+            ratios[k] = best.map_or(f64::INFINITY, |b| b.0);
+            if let Some((_, t)) = best {
+                near[found] = (h.point(*t), probes[k].0, *t);
+                found += 1;
             }
-            None => dists.push(f64::INFINITY),
+        }
+        let mut sorted = ratios;
+        sorted.sort_by(f64::total_cmp);
+        if sorted[PROBES / 2] < 1.0 && found > 0 {
+            let mut targets: Vec<usize> = near[..found].iter().map(|n| n.2).collect();
+            targets.sort_unstable();
+            let pairs: Vec<_> = near[..found].iter().map(|n| (n.0, n.1)).collect();
+            let drifted = map_drift > 0.0;
+            return Some(ProbeSeed {
+                query: [g0, g1],
+                target: targets[targets.len() / 2],
+                start: match drifted {
+                    true => Similarity2::fit(&pairs, None)?,
+                    false => Similarity2::identity(),
+                },
+                drifted,
+                pairs,
+            });
+        }
+        if drift <= 0.0 {
+            break;
         }
     }
-    dists.sort_by(f64::total_cmp);
-    if dists[PROBES / 2].partial_cmp(&radius) != Some(std::cmp::Ordering::Less)
-        || targets.is_empty()
-    {
-        return None;
-    }
-    targets.sort_unstable();
-    Some(([g0, g1], targets[targets.len() / 2]))
+    None
 }
 
 /// Verifies, scores and converts the candidates of one query.
@@ -263,7 +321,7 @@ pub fn verify_all(
     h: &History,
     frame: &Frame,
     shape: &[Candidate],
-    seed: Option<([usize; 2], usize)>,
+    seed: Option<ProbeSeed>,
     config: &OnlineConfig,
 ) -> Vec<Found> {
     let pc = &config.pipeline;
@@ -351,16 +409,38 @@ pub fn verify_all(
             found.extend(finish(h, &tw, &qw, &v, frame, config, false));
         }
     }
-    if let Some((range, target)) = seed {
+    if let Some(ProbeSeed {
+        query: range,
+        target,
+        start,
+        drifted,
+        pairs,
+    }) = &seed
+    {
+        let (range, target, start) = (*range, *target, *start);
         let room = range[1] - range[0];
-        if let (Some(qw), Some(tw)) = (
+        // A drifted seed must still be able to reach the cut under the
+        // drift prior, from its start similarity (as the shape candidates'
+        // pre-gate): most of them are other roads within the wide radius.
+        let seed_len = h.s[range[1]] - h.s[range[0]];
+        let between = (h.s[range[0]] - h.s[target]).abs();
+        let may_pass = !drifted
+            || prior_may_pass(
+                &start,
+                pairs,
+                [0.5 * seed_len, 5.0 * seed_len],
+                between,
+                config,
+                2.0,
+            );
+        if let (true, Some(qw), Some(tw)) = (
+            may_pass,
             window(
                 range[0].saturating_sub(room),
                 (range[1] + room).min(h.xy.len() - 1),
             ),
             window(target.saturating_sub(2 * room), target + 2 * room),
         ) {
-            let seed_len = h.s[range[1]] - h.s[range[0]];
             let allowed = |g: usize, v: f64| {
                 let sq = h.s[g + qw.grid0];
                 let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
@@ -368,17 +448,10 @@ pub fn verify_all(
             };
             let xy = qw.path.points(false);
             let local = [range[0] - qw.grid0, range[1] - qw.grid0];
-            // The two windows are one map: the identity between the frames.
-            if let Some(v) = verify::verify_seeded(
-                &tw.path,
-                &qw.path,
-                &xy,
-                local,
-                Similarity2::identity(),
-                false,
-                pc,
-                &allowed,
-            ) {
+            // The two windows are one map: `start` is in the history's frame.
+            if let Some(v) =
+                verify::verify_seeded(&tw.path, &qw.path, &xy, local, start, false, pc, &allowed)
+            {
                 found.extend(finish(h, &tw, &qw, &v, frame, config, true));
             }
         }

@@ -203,7 +203,13 @@ impl WorkerState {
             Vec::new()
         };
         let seed = match (&self.searcher.spatial, self.config.proximity) {
-            (Some(sp), true) => proximity_seed(h, sp, segments, 2 * self.config.probe_every),
+            (Some(sp), true) => proximity_seed(
+                h,
+                sp,
+                segments,
+                2 * self.config.probe_every,
+                self.config.drift_radius(),
+            ),
             _ => None,
         };
         let found = verify_all(h, frame, &shape, seed, &self.config);

@@ -32,10 +32,17 @@ pub struct ProximitySeed {
 }
 
 /// Probe points per window.
-const PROBES: usize = 8;
+pub const PROBES: usize = 8;
 /// A window revisits a place when its probes' median distance to the other
 /// part is below this fraction of the window's length.
-const NEAR_FRACTION: f64 = 0.25;
+pub const NEAR_FRACTION: f64 = 0.25;
+
+/// The radius within which a window of `length` finds the part it revisits,
+/// `between` along the path away: `NEAR_FRACTION * length` in a consistent
+/// map, growing by `drift` per unit of path in between in a drifting one.
+pub fn radius(length: f64, drift: f64, between: f64) -> f64 {
+    NEAR_FRACTION * length + drift * between
+}
 
 /// Seeds from windows of two consecutive segments; `drift` is the position
 /// drift per unit of path length between the parts (0: consistent map only).
