@@ -253,3 +253,25 @@ fn merge_writes_tum_and_a_figure() {
     );
     assert!(std::fs::read_to_string(&fig).unwrap().contains("<svg"));
 }
+
+#[test]
+fn stream_drift_probe_flag_keeps_the_json_lines_contract() {
+    let out = turnprint(&["stream", "tests/data/00.txt", "--json", "--drift-probe"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("each line is JSON"))
+        .collect();
+    let (last, candidates) = lines.split_last().unwrap();
+    assert_eq!(last["event"], "summary");
+    assert!(candidates.iter().all(|c| c["event"] == "candidate"));
+    assert_eq!(
+        last["candidates"].as_u64().unwrap() as usize,
+        candidates.len()
+    );
+}

@@ -114,6 +114,11 @@ enum Command {
         /// confirmed loop.
         #[arg(long, requires = "verify")]
         plot: Option<PathBuf>,
+        /// Where nothing is near, also probe with a radius growing with the
+        /// path in between (strongly drifting odometry; more false
+        /// candidates on consistent maps: EVALUATION_ONLINE.md).
+        #[arg(long)]
+        drift_probe: bool,
     },
 }
 
@@ -160,11 +165,17 @@ fn main() -> ExitCode {
             truth,
             cameras,
             plot,
+            drift_probe,
         } => {
+            let config = turnprint::online::OnlineConfig {
+                top_k: top,
+                drift_probe,
+                ..Default::default()
+            };
             if verify {
-                run_stream_verified(&a, top, format, truth, &cameras, plot, json)
+                run_stream_verified(&a, &config, format, truth, &cameras, plot, json)
             } else {
-                run_stream(&a, top, format)
+                run_stream(&a, &config, format)
             }
         }
     };
@@ -380,20 +391,20 @@ fn print_table(hypotheses: &[Hypothesis], a_name: &str, b_name: &str) {
     }
 }
 
-fn run_stream(a: &Path, top: usize, format: Format) -> Result<(), String> {
-    let config = turnprint::online::OnlineConfig {
-        top_k: top,
-        ..Default::default()
-    };
+fn run_stream(
+    a: &Path,
+    config: &turnprint::online::OnlineConfig,
+    format: Format,
+) -> Result<(), String> {
     let mut out = std::io::stdout().lock();
-    turnprint::online::cli::stream(a, format, &config, &mut out).map_err(|e| e.to_string())?;
+    turnprint::online::cli::stream(a, format, config, &mut out).map_err(|e| e.to_string())?;
     Ok(())
 }
 
 #[cfg(feature = "verifier")]
 fn run_stream_verified(
     a: &Path,
-    top: usize,
+    config: &turnprint::online::OnlineConfig,
     format: Format,
     truth: Option<PathBuf>,
     cameras: &str,
@@ -405,10 +416,6 @@ fn run_stream_verified(
         .split(',')
         .map(CameraKind::parse)
         .collect::<Result<Vec<_>, _>>()?;
-    let config = turnprint::online::OnlineConfig {
-        top_k: top,
-        ..Default::default()
-    };
     let options = VerifyOptions {
         truth,
         cameras,
@@ -418,7 +425,7 @@ fn run_stream_verified(
     let mut stdout = std::io::stdout().lock();
     let mut human = HumanLines(&mut stdout, Vec::new());
     let out: &mut dyn Write = if json { &mut stdout_json() } else { &mut human };
-    stream_verified(a, format, &config, &options, out).map_err(|e| e.to_string())?;
+    stream_verified(a, format, config, &options, out).map_err(|e| e.to_string())?;
     Ok(())
 }
 
@@ -474,7 +481,7 @@ impl<W: Write> Write for HumanLines<'_, W> {
 #[cfg(not(feature = "verifier"))]
 fn run_stream_verified(
     _: &Path,
-    _: usize,
+    _: &turnprint::online::OnlineConfig,
     _: Format,
     _: Option<PathBuf>,
     _: &str,
