@@ -46,6 +46,15 @@ pub struct Found {
     pub proximity: bool,
 }
 
+impl crate::pipeline::rank::Ranked for Found {
+    fn hypothesis(&self) -> &Hypothesis {
+        &self.hypothesis
+    }
+    fn hypothesis_mut(&mut self) -> &mut Hypothesis {
+        &mut self.hypothesis
+    }
+}
+
 /// Search state kept between segments.
 pub struct Searcher {
     /// Block spectra and prefix sums of the history signature.
@@ -474,27 +483,7 @@ pub fn verify_all(
                 .collect::<Vec<_>>()
         );
     }
-    let mut kept: Vec<Found> = Vec::new();
-    for f in found {
-        if kept.len() >= config.top_k {
-            break;
-        }
-        if f.hypothesis.score < config.min_score {
-            break;
-        }
-        let dup = kept.iter().any(|k| {
-            crate::pipeline::rank::range_overlap(k.hypothesis.b_range, f.hypothesis.b_range) > 0.5
-                && crate::pipeline::rank::range_overlap(k.hypothesis.a_range, f.hypothesis.a_range)
-                    > 0.5
-        });
-        if !dup {
-            kept.push(f);
-        }
-    }
-    for (i, f) in kept.iter_mut().enumerate() {
-        f.hypothesis.rank = i + 1;
-    }
-    kept
+    crate::pipeline::rank::rank(found, config.top_k, config.min_score)
 }
 
 /// Slack of [`prior_may_pass`] for what growing and refitting may still
