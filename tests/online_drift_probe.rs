@@ -12,7 +12,9 @@ use rand::SeedableRng;
 use turnprint::eval::checks::{loop_correct, LoopClaim};
 use turnprint::eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
-use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
+use turnprint::online::OnlineConfig;
+
+mod common;
 
 /// Emitted candidates that are correct against `truth`, and all emitted.
 fn correct_of(
@@ -24,13 +26,7 @@ fn correct_of(
         drift_probe,
         ..Default::default()
     };
-    let mut det = Detector::new(config, Overflow::Block);
-    let mut out = Vec::new();
-    for p in points {
-        det.push(&PoseInput::at(*p));
-        out.extend(det.poll());
-    }
-    out.extend(det.finish().0);
+    let out = common::emitted_candidates(points, config);
     let correct = out
         .iter()
         .filter(|c| {

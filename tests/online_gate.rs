@@ -11,7 +11,9 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use turnprint::eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
-use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
+use turnprint::online::OnlineConfig;
+
+mod common;
 
 /// (at_pose, a_range, b_range, score bits) of every emitted candidate.
 fn emitted(points: &[Vector3<f64>], prior_gate: bool) -> Vec<(usize, [usize; 2], [usize; 2], u64)> {
@@ -19,14 +21,8 @@ fn emitted(points: &[Vector3<f64>], prior_gate: bool) -> Vec<(usize, [usize; 2],
         prior_gate,
         ..Default::default()
     };
-    let mut det = Detector::new(config, Overflow::Block);
-    let mut out = Vec::new();
-    for p in points {
-        det.push(&PoseInput::at(*p));
-        out.extend(det.poll());
-    }
-    out.extend(det.finish().0);
-    out.iter()
+    common::emitted_candidates(points, config)
+        .iter()
         .map(|c| {
             let h = &c.hypothesis;
             (c.at_pose, h.a_range, h.b_range, h.score.to_bits())
