@@ -7,7 +7,8 @@
 //!   history of a 100 000-pose synthetic city drive (piece correlation with
 //!   the block spectra, all queries N = 2..12 both directions, and the
 //!   batch verification of the candidates);
-//! - `stream_kitti_00`: the whole of KITTI 00 pushed and finished.
+//! - `stream_kitti_00`: the whole of KITTI 00 pushed and finished
+//!   (`_drift_probe`: with `OnlineConfig::drift_probe`).
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -159,15 +160,24 @@ fn stream(c: &mut Criterion) {
     let mut g = c.benchmark_group("online");
     g.throughput(Throughput::Elements(points.len() as u64));
     g.sample_size(20);
-    g.bench_function("stream_kitti_00", |b| {
-        b.iter(|| {
-            let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
-            for p in &points {
-                d.push(&PoseInput::at(*p));
-            }
-            d.finish()
-        })
-    });
+    for (name, drift_probe) in [
+        ("stream_kitti_00", false),
+        ("stream_kitti_00_drift_probe", true),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let config = OnlineConfig {
+                    drift_probe,
+                    ..Default::default()
+                };
+                let mut d = Detector::new(config, Overflow::Block);
+                for p in &points {
+                    d.push(&PoseInput::at(*p));
+                }
+                d.finish()
+            })
+        });
+    }
     g.finish();
 }
 

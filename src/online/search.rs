@@ -246,7 +246,7 @@ pub fn proximity_seed(
 
 /// Cells (of the spatial index) the drifting map's probe looks across at
 /// most: its radius stops growing past 512 typical steps.
-const DRIFT_CELLS: i32 = 8;
+const DRIFT_CELLS: i32 = 4;
 
 /// The probe of track samples `[g0, g1]`: the median nearest earlier
 /// sample (at least the window's own length back along the path) when the
@@ -307,13 +307,14 @@ pub fn probe(
             targets.sort_unstable();
             let pairs: Vec<_> = near[..found].iter().map(|n| (n.0, n.1)).collect();
             let drifted = map_drift > 0.0;
+            let start = match drifted {
+                true => crate::pipeline::proximity::drifted_start(&pairs, length)?,
+                false => Similarity2::identity(),
+            };
             return Some(ProbeSeed {
                 query: [g0, g1],
                 target: targets[targets.len() / 2],
-                start: match drifted {
-                    true => Similarity2::fit(&pairs, None)?,
-                    false => Similarity2::identity(),
-                },
+                start,
                 drifted,
                 pairs,
             });

@@ -19,7 +19,6 @@ pub use merge::merge;
 pub use prepare::PreparedPath;
 pub use verify::Verified;
 
-use crate::geometry::Similarity2;
 use crate::matching::candidates::{queries, search};
 use crate::matching::turns::{propose, turns};
 use crate::matching::Correlator;
@@ -195,17 +194,13 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
             verify::verify_best(pa, pa, &xy, cand, config, &away(seed_len)).map(|(v, _)| v)
         }
         LoopJob::Proximity(seed) => {
-            let start = match seed.drifted {
-                true => Similarity2::fit(&seed.pairs, None).unwrap_or_else(Similarity2::identity),
-                false => Similarity2::identity(),
-            };
             let seed_len = track.s[seed.query[1]] - track.s[seed.query[0]];
             verify::verify_seeded(
                 pa,
                 pa,
                 &xy,
                 seed.query,
-                start,
+                seed.start,
                 false,
                 config,
                 &away(seed_len),

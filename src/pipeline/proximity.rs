@@ -16,7 +16,10 @@
 //! monocular estimate of 08, which ORB-SLAM2 did not close, this finds
 //! both revisits.
 
+use nalgebra::Vector2;
+
 use super::PreparedPath;
+use crate::geometry::Similarity2;
 
 /// A query grid range and the target grid index its middle is nearest to.
 #[derive(Debug, Clone)]
@@ -25,8 +28,9 @@ pub struct ProximitySeed {
     pub query: [usize; 2],
     /// Nearest earlier-or-later grid index outside the neighbourhood.
     pub target: usize,
-    /// Probe points and their nearest points of the other part (target, query).
-    pub pairs: Vec<(nalgebra::Vector2<f64>, nalgebra::Vector2<f64>)>,
+    /// The similarity (query onto target) to grow from: the identity in a
+    /// consistent map, [`drifted_start`] in a drifting one.
+    pub start: Similarity2,
     /// Found only with the drifting map's wider radius.
     pub drifted: bool,
 }
@@ -42,6 +46,28 @@ pub const NEAR_FRACTION: f64 = 0.25;
 /// map, growing by `drift` per unit of path in between in a drifting one.
 pub fn radius(length: f64, drift: f64, between: f64) -> f64 {
     NEAR_FRACTION * length + drift * between
+}
+
+/// A drifted seed's probes must fit their nearest points under one
+/// similarity within this fraction of the window's length, so that a road
+/// that only crosses or passes the window is not grown: twice the band a
+/// drifting map's revisit is grown in (`Config::for_loops`), as eight
+/// nearest points fit less tightly than a grown overlap. (At 0.05 the
+/// strong-drift loops lost events; without the check, rank-1.)
+pub const DRIFT_FIT: f64 = 0.1;
+
+/// The similarity a drifted seed grows from: the fit of the probe points
+/// (query) onto their nearest points (target), when its RMS residual is
+/// within [`DRIFT_FIT`] of the window's `length`.
+pub fn drifted_start(pairs: &[(Vector2<f64>, Vector2<f64>)], length: f64) -> Option<Similarity2> {
+    let start = Similarity2::fit(pairs, None)?;
+    let rms = (pairs
+        .iter()
+        .map(|(t, q)| (start.apply(q) - t).norm_squared())
+        .sum::<f64>()
+        / pairs.len().max(1) as f64)
+        .sqrt();
+    (rms <= DRIFT_FIT * length).then_some(start)
 }
 
 /// Seeds from windows of two consecutive segments; `drift` is the position
@@ -80,7 +106,7 @@ fn probe(
     // Per probe: (radius-relative distance, target) for the consistent and
     // the drifting map.
     let mut near = [[(f64::INFINITY, 0usize); PROBES]; 2];
-    let mut probes = [nalgebra::Vector2::zeros(); PROBES];
+    let mut probes = [Vector2::zeros(); PROBES];
     for k in 0..PROBES {
         let gk = g[0] + (k * (g[1] - g[0])) / (PROBES - 1);
         let (p, s) = (track.xy[gk], track.s[gk]);
@@ -114,12 +140,17 @@ fn probe(
         }
         let mut targets: Vec<usize> = near[map].iter().map(|n| n.1).collect();
         targets.sort_unstable();
+        let pairs: Vec<_> = (0..PROBES)
+            .map(|k| (track.xy[near[map][k].1], probes[k]))
+            .collect();
+        let start = match map {
+            0 => Similarity2::identity(),
+            _ => drifted_start(&pairs, length)?,
+        };
         Some(ProximitySeed {
             query: g,
             target: targets[PROBES / 2],
-            pairs: (0..PROBES)
-                .map(|k| (track.xy[near[map][k].1], probes[k]))
-                .collect(),
+            start,
             drifted: map == 1,
         })
     })
