@@ -116,15 +116,12 @@ fn probe(
             let between = (track.s[t] - s).abs();
             if between > length {
                 let d = (track.xy[t] - p).norm();
-                for (map, radius) in [
-                    NEAR_FRACTION * length,
-                    NEAR_FRACTION * length + drift * between,
-                ]
-                .into_iter()
-                .enumerate()
+                for (map, r) in [radius(length, 0.0, between), radius(length, drift, between)]
+                    .into_iter()
+                    .enumerate()
                 {
-                    if d < near[map][k].0 * radius {
-                        near[map][k] = (d / radius, t);
+                    if d < near[map][k].0 * r {
+                        near[map][k] = (d / r, t);
                     }
                 }
             }
@@ -138,9 +135,11 @@ fn probe(
         if dists[PROBES / 2] >= 1.0 {
             return None;
         }
-        let mut targets: Vec<usize> = near[map].iter().map(|n| n.1).collect();
+        // Probes that found a point (at least half of them, by the median).
+        let found = (0..PROBES).filter(|&k| near[map][k].0.is_finite());
+        let mut targets: Vec<usize> = found.clone().map(|k| near[map][k].1).collect();
         targets.sort_unstable();
-        let pairs: Vec<_> = (0..PROBES)
+        let pairs: Vec<_> = found
             .map(|k| (track.xy[near[map][k].1], probes[k]))
             .collect();
         let start = match map {
@@ -149,7 +148,7 @@ fn probe(
         };
         Some(ProximitySeed {
             query: g,
-            target: targets[PROBES / 2],
+            target: targets[targets.len() / 2],
             start,
             drifted: map == 1,
         })
