@@ -32,6 +32,9 @@ struct Args {
     /// Loop runs per sequence and source.
     #[arg(long, default_value_t = 4)]
     loop_seeds: u64,
+    /// Leave out loops scoring below this (`loops --min-score`).
+    #[arg(long, default_value_t = 0.0)]
+    loop_min_score: f64,
     /// Print JSON instead of Markdown.
     #[arg(long)]
     json: bool,
@@ -48,6 +51,7 @@ fn main() -> ExitCode {
         cases: args.cases,
         negatives: args.cases.div_ceil(3),
         loop_seeds: args.loop_seeds,
+        loop_min_score: args.loop_min_score,
         what: match args.what {
             WhatArg::Merge => What::Merge,
             WhatArg::Loops => What::Loops,

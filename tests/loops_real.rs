@@ -17,7 +17,7 @@ fn loops_find_both_revisits_of_the_unclosed_mono_08() {
     assert_eq!(p.events.len(), 2, "{:?}", p.events);
     assert!(p.seq.mono.positions.len() > 4000);
     for seed in [3, 4] {
-        let [found, naive] = loops::run(&p, Source::Mono, seed, &DriftModel::strong());
+        let [found, naive] = loops::run(&p, Source::Mono, seed, &DriftModel::strong(), 0.0);
         assert_eq!(found.error, None);
         assert_eq!(found.events_covered, 2, "seed {seed}: {:?}", found.loops);
         assert!(found.rank1_correct, "seed {seed}: {:?}", found.loops);

@@ -119,9 +119,16 @@ pub fn revisit_separation(p: &Prepared, positions: &[Vector3<f64>], frames: &[f6
     median(&d)
 }
 
-/// Runs `find_loops` and the naive baseline on one input (sequence, source,
-/// seed): the seed fixes the drift and the similarity.
-pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [LoopRun; 2] {
+/// Runs `find_loops` (loops scoring below `min_score` left out) and the
+/// naive baseline on one input (sequence, source, seed): the seed fixes the
+/// drift and the similarity.
+pub fn run(
+    p: &Prepared,
+    source: Source,
+    seed: u64,
+    drift: &DriftModel,
+    min_score: f64,
+) -> [LoopRun; 2] {
     let mut rng = StdRng::seed_from_u64(seed);
     let (positions, frames) = input(p, source, &mut rng, drift);
     let truth: Vec<Vector3<f64>> = frames.iter().map(|f| p.seq.true_position(*f)).collect();
@@ -135,6 +142,7 @@ pub fn run(p: &Prepared, source: Source, seed: u64, drift: &DriftModel) -> [Loop
 
     let mut config = Config::for_loops();
     config.top_k = TOP_K;
+    config.min_score = min_score;
     let start = Instant::now();
     let found = find_loops(&traj, &config);
     let tp_seconds = start.elapsed().as_secs_f64();

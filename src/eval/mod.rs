@@ -117,6 +117,8 @@ pub struct Options {
     pub negatives: usize,
     /// Loop runs per sequence and source (seeds `seed..seed + n`).
     pub loop_seeds: u64,
+    /// `Config::min_score` of the loop runs (the CLI's `loops --min-score`).
+    pub loop_min_score: f64,
     /// What to run.
     pub what: What,
 }
@@ -129,6 +131,7 @@ impl Default for Options {
             cases: 480,
             negatives: 160,
             loop_seeds: 4,
+            loop_min_score: 0.0,
             what: What::All,
         }
     }
@@ -209,7 +212,7 @@ pub fn run(opts: &Options) -> Result<Report> {
                     let seed = opts.seed.wrapping_mul(1000).wrapping_add(k)
                         ^ (p.seq.name.parse::<u64>().unwrap_or(0) << 20)
                         ^ ((source as u64) << 40);
-                    runs.extend(loops::run(p, source, seed, &drift));
+                    runs.extend(loops::run(p, source, seed, &drift, opts.loop_min_score));
                     bar.inc(1);
                 }
             }
