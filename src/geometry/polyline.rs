@@ -1,7 +1,7 @@
 //! A 2D polyline with arc length, for nearest-point queries: how far a mapped
 //! point of one path is from the other path, and where along it.
 //!
-//! The index is a parry2d BVH over runs of [`CHUNK`] consecutive segments
+//! The index is a parry2d BVH over runs of `CHUNK` consecutive segments
 //! rather than over single segments: a path is spatially coherent, so a run's
 //! box is tight, and 8x fewer leaves make the tree cheap to build. A whole
 //! path builds its tree on the first query (a path that is never a target
@@ -59,7 +59,7 @@ pub struct Projection {
     pub vertex: f64,
 }
 
-/// The BVH of a growing path: one leaf per complete run of [`PATH_CHUNK`]
+/// The BVH of a growing path: one leaf per complete run of `PATH_CHUNK`
 /// segments, inserted as the path grows.
 #[derive(Clone, Default)]
 pub struct PathIndex {

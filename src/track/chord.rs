@@ -112,7 +112,7 @@ impl ChordParam {
         })
     }
 
-    /// The stationary threshold of a path: [`STATIONARY_FRACTION`] of an
+    /// The stationary threshold of a path: `STATIONARY_FRACTION` of an
     /// upper quantile of its step lengths, so that long stops (many
     /// near-zero steps) do not drag it down. `None` when nothing moves.
     pub fn min_step_of(points: &[Vector2<f64>]) -> Option<f64> {

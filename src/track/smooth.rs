@@ -37,7 +37,7 @@ pub struct Smoother {
 }
 
 impl Smoother {
-    /// The bandwidth among [`BANDWIDTH_STEPS`] (and [`SPARSE_STEP`] for a
+    /// The bandwidth among `BANDWIDTH_STEPS` (and `SPARSE_STEP` for a
     /// sparse path) with the lowest GCV score.
     pub fn choose(chord: &ChordParam) -> Smoother {
         let sparse = is_sparse(&chord.points);

@@ -19,24 +19,24 @@
 //!   two-point RANSAC explains as many matches; the pose is then reported with
 //!   a zero translation.
 //!
-//! Acceptance needs, besides a consistent model (defaults in brackets):
+//! Acceptance needs, besides a consistent model (defaults in parentheses):
 //!
-//! * at least `min_inliers` inliers [30] and an inlier ratio of at least
-//!   `min_inlier_ratio` [0.25] of the matches;
+//! * at least `min_inliers` inliers (30) and an inlier ratio of at least
+//!   `min_inlier_ratio` (0.25) of the matches;
 //! * a unique optimum: no second local optimum more than `rival_rotation`
-//!   [5°] away whose MSAC cost is within `rival_cost_margin` [2 χ²₂(95 %)]
+//!   (5°) away whose MSAC cost is within `rival_cost_margin` (2 χ²₂(95 %))
 //!   of the best (near-planar scenes and narrow overlaps leave two poses
 //!   that fit equally well, which no local covariance shows);
 //! * a well-conditioned fit: rotation standard deviation from the
-//!   refinement's information matrix below `max_rotation_std` [5°];
-//! * a homography taking at most `max_homography_share` [0.55] of the
+//!   refinement's information matrix below `max_rotation_std` (5°);
+//! * a homography taking at most `max_homography_share` (0.55) of the
 //!   ORB-SLAM model-selection score (planar scene);
-//! * at least `min_cheirality` [80 %] of the inliers with measurable parallax
+//! * at least `min_cheirality` (80 %) of the inliers with measurable parallax
 //!   in front of both cameras.
 //!
-//! A translation direction less certain than `max_translation_std` [10°] is
+//! A translation direction less certain than `max_translation_std` (10°) is
 //! not reported (rotation only). Inliers: Sampson error below
-//! `threshold_sigmas` [2] σ.
+//! `threshold_sigmas` (2) σ.
 
 #![allow(non_snake_case)]
 
