@@ -16,7 +16,7 @@ use crate::align::ransac::SplitMix;
 use crate::align::ransac_similarity;
 use crate::geometry::{Plane, Similarity2};
 use crate::matching::{Candidate, Orientation};
-use crate::pipeline::proximity::PROBES;
+use crate::pipeline::proximity::{radius, seed_of, Near, ProximitySeed, PROBES};
 use crate::pipeline::{verify, Verified};
 use crate::score::{loop_score, score};
 use crate::Hypothesis;
@@ -206,24 +206,6 @@ impl Searcher {
     }
 }
 
-/// A proximity seed: the query's track samples, the earlier sample its
-/// middle is nearest to, and the similarity (query onto target) to start
-/// growing from.
-#[derive(Debug, Clone)]
-pub struct ProbeSeed {
-    /// Inclusive query track range.
-    pub query: [usize; 2],
-    /// Nearest earlier track sample.
-    pub target: usize,
-    /// Start of the growth: the identity in a consistent map, the probes'
-    /// fit onto their nearest points in a drifting one.
-    pub start: Similarity2,
-    /// Found only with the drifting map's wider radius.
-    pub drifted: bool,
-    /// Probe points and their nearest earlier points (target, query).
-    pub pairs: Vec<(Vector2<f64>, Vector2<f64>)>,
-}
-
 /// Proximity seed of the newest two segments (as the batch proximity
 /// seeds), or, for a periodic probe (`segments == false`), of the newest
 /// `window` track samples.
@@ -233,7 +215,7 @@ pub fn proximity_seed(
     segments: bool,
     window: usize,
     drift: f64,
-) -> Option<ProbeSeed> {
+) -> Option<ProximitySeed> {
     let last = h.xy.len().checked_sub(1)?;
     let nb = h.bounds.len();
     let g0 = if segments && nb >= 3 {
@@ -250,82 +232,57 @@ pub fn proximity_seed(
 /// same candidates on KITTI, at more time.)
 const DRIFT_CELLS: i32 = 4;
 
-/// The probe of track samples `[g0, g1]`: the median nearest earlier
-/// sample (at least the window's own length back along the path) when the
-/// probes' median distance is within the radius of
-/// [`crate::pipeline::proximity::radius`]: the consistent map's first,
-/// else (`drift > 0`) the drifting map's, as the batch proximity seeds.
+/// The probe of track samples `[g0, g1]`, as the batch proximity seeds
+/// (`pipeline::proximity`): each probe point's nearest earlier sample (at
+/// least the window's own length back along the path) within the
+/// consistent map's radius, else (`drift > 0`) the drifting map's.
 pub fn probe(
     h: &History,
     spatial: &SpatialIndex,
     g0: usize,
     g1: usize,
     drift: f64,
-) -> Option<ProbeSeed> {
-    use crate::pipeline::proximity::radius;
+) -> Option<ProximitySeed> {
     if g1 <= g0 + PROBES {
         return None;
     }
     let length = h.s[g1] - h.s[g0];
-    let mut ratios = [f64::INFINITY; PROBES];
-    let mut near = [(Vector2::zeros(), Vector2::zeros(), 0usize); PROBES];
-    let probes: [(Vector2<f64>, f64, usize); PROBES] = std::array::from_fn(|k| {
+    if length <= 0.0 {
+        return None;
+    }
+    let probes: [(Vector2<f64>, f64); PROBES] = std::array::from_fn(|k| {
         let g = g0 + (k * (g1 - g0)) / (PROBES - 1);
-        (h.point(g), h.s[g], g)
+        (h.point(g), h.s[g])
     });
     let allowed = |k: usize, t: usize| (h.s[t] - probes[k].1).abs() > length && t < g0;
-    for map_drift in [0.0, drift] {
-        let found_near: [Option<(f64, usize)>; PROBES] = if map_drift > 0.0 {
-            // Every earlier part lies at most the whole path back.
-            let max_radius = radius(length, map_drift, h.s[g1]);
-            spatial.nearest_scaled(
-                h,
-                &probes.map(|p| p.0),
-                max_radius,
-                DRIFT_CELLS,
-                |k, t| radius(length, map_drift, (probes[k].1 - h.s[t]).abs()),
-                allowed,
-            )
-        } else {
-            let r = radius(length, 0.0, 0.0);
-            std::array::from_fn(|k| {
-                spatial
-                    .nearest(h, &probes[k].0, r, |t| allowed(k, t))
-                    .map(|(d, t)| (d / r, t))
-            })
-        };
-        let mut found = 0;
-        for (k, best) in found_near.iter().enumerate() {
-            ratios[k] = best.map_or(f64::INFINITY, |b| b.0);
-            if let Some((_, t)) = best {
-                near[found] = (h.point(*t), probes[k].0, *t);
-                found += 1;
-            }
-        }
-        let mut sorted = ratios;
-        sorted.sort_by(f64::total_cmp);
-        if sorted[PROBES / 2] < 1.0 && found > 0 {
-            let mut targets: Vec<usize> = near[..found].iter().map(|n| n.2).collect();
-            targets.sort_unstable();
-            let pairs: Vec<_> = near[..found].iter().map(|n| (n.0, n.1)).collect();
-            let drifted = map_drift > 0.0;
-            let start = match drifted {
-                true => crate::pipeline::proximity::drifted_start(&pairs, length)?,
-                false => Similarity2::identity(),
-            };
-            return Some(ProbeSeed {
-                query: [g0, g1],
-                target: targets[targets.len() / 2],
-                start,
-                drifted,
-                pairs,
-            });
-        }
+    let near = |k: usize, found: Option<(f64, usize)>| {
+        found.map(|(ratio, t)| Near {
+            ratio,
+            target: t,
+            pair: (h.point(t), probes[k].0),
+        })
+    };
+    let r = radius(length, 0.0, 0.0);
+    let consistent: [Option<Near>; PROBES] = std::array::from_fn(|k| {
+        let found = spatial.nearest(h, &probes[k].0, r, |t| allowed(k, t));
+        near(k, found.map(|(d, t)| (d / r, t)))
+    });
+    seed_of([g0, g1], length, &consistent, false).or_else(|| {
         if drift <= 0.0 {
-            break;
+            return None;
         }
-    }
-    None
+        // Every earlier part lies at most the whole path back.
+        let found = spatial.nearest_scaled(
+            h,
+            &probes.map(|p| p.0),
+            radius(length, drift, h.s[g1]),
+            DRIFT_CELLS,
+            |k, t| radius(length, drift, (probes[k].1 - h.s[t]).abs()),
+            allowed,
+        );
+        let drifting: [Option<Near>; PROBES] = std::array::from_fn(|k| near(k, found[k]));
+        seed_of([g0, g1], length, &drifting, true)
+    })
 }
 
 /// Verifies, scores and converts the candidates of one query.
@@ -333,7 +290,7 @@ pub fn verify_all(
     h: &History,
     frame: &Frame,
     shape: &[Candidate],
-    seed: Option<ProbeSeed>,
+    seed: Option<ProximitySeed>,
     config: &OnlineConfig,
 ) -> Vec<Found> {
     let pc = &config.pipeline;
@@ -421,25 +378,18 @@ pub fn verify_all(
             found.extend(finish(h, &tw, &qw, &v, frame, config, false));
         }
     }
-    if let Some(ProbeSeed {
-        query: range,
-        target,
-        start,
-        drifted,
-        pairs,
-    }) = &seed
-    {
-        let (range, target, start) = (*range, *target, *start);
+    if let Some(seed) = &seed {
+        let (range, target, start) = (seed.query, seed.target, seed.start);
         let room = range[1] - range[0];
         // A drifted seed must still be able to reach the cut under the
         // drift prior, from its start similarity (as the shape candidates'
         // pre-gate): most of them are other roads within the wide radius.
         let seed_len = h.s[range[1]] - h.s[range[0]];
         let between = (h.s[range[0]] - h.s[target]).abs();
-        let may_pass = !drifted
+        let may_pass = !seed.drifted
             || prior_may_pass(
                 &start,
-                pairs,
+                &seed.pairs,
                 [0.5 * seed_len, 5.0 * seed_len],
                 between,
                 config,

@@ -21,18 +21,65 @@ use nalgebra::Vector2;
 use super::PreparedPath;
 use crate::geometry::Similarity2;
 
-/// A query grid range and the target grid index its middle is nearest to.
+/// A query grid range, the target grid index its middle is nearest to, and
+/// where to start growing (batch seeds and the online probe alike).
 #[derive(Debug, Clone)]
 pub struct ProximitySeed {
     /// Inclusive query grid range.
     pub query: [usize; 2],
-    /// Nearest earlier-or-later grid index outside the neighbourhood.
+    /// The probes' median nearest grid index outside the neighbourhood.
     pub target: usize,
     /// The similarity (query onto target) to grow from: the identity in a
     /// consistent map, [`drifted_start`] in a drifting one.
     pub start: Similarity2,
     /// Found only with the drifting map's wider radius.
     pub drifted: bool,
+    /// The probe points and their nearest points (target, query).
+    pub pairs: Vec<(Vector2<f64>, Vector2<f64>)>,
+}
+
+/// One probe point's nearest point of the other part.
+#[derive(Debug, Clone, Copy)]
+pub struct Near {
+    /// Distance over the radius (below 1: within it).
+    pub ratio: f64,
+    /// Grid index of the nearest point.
+    pub target: usize,
+    /// The nearest point and the probe point (target, query).
+    pub pair: (Vector2<f64>, Vector2<f64>),
+}
+
+/// The seed of window `query` (of `length`) whose probes found `near`
+/// (`None`: nothing within the largest radius), when their median ratio is
+/// below 1: the median target, grown from the identity or, for a drifting
+/// map, from [`drifted_start`].
+pub fn seed_of(
+    query: [usize; 2],
+    length: f64,
+    near: &[Option<Near>; PROBES],
+    drifted: bool,
+) -> Option<ProximitySeed> {
+    let mut ratios = near.map(|n| n.map_or(f64::INFINITY, |n| n.ratio));
+    ratios.sort_by(f64::total_cmp);
+    if ratios[PROBES / 2] >= 1.0 {
+        return None;
+    }
+    // The probes that found a point: at least half of them, by the median.
+    let found: Vec<Near> = near.iter().flatten().copied().collect();
+    let mut targets: Vec<usize> = found.iter().map(|n| n.target).collect();
+    targets.sort_unstable();
+    let pairs: Vec<_> = found.iter().map(|n| n.pair).collect();
+    let start = match drifted {
+        true => drifted_start(&pairs, length)?,
+        false => Similarity2::identity(),
+    };
+    Some(ProximitySeed {
+        query,
+        target: targets[targets.len() / 2],
+        start,
+        drifted,
+        pairs,
+    })
 }
 
 /// Probe points per window.
@@ -84,7 +131,9 @@ pub fn proximity_seeds(path: &PreparedPath, drift: f64) -> Vec<ProximitySeed> {
             continue;
         }
         let length = track.s[g1] - track.s[g0];
-        seeds.extend(probe(path, [g0, g1], length, drift, stride));
+        if length > 0.0 {
+            seeds.extend(probe(path, [g0, g1], length, drift, stride));
+        }
     }
     seeds
 }
@@ -103,14 +152,11 @@ fn probe(
     stride: usize,
 ) -> Option<ProximitySeed> {
     let track = &path.track;
-    // Per probe: (radius-relative distance, target) for the consistent and
-    // the drifting map.
-    let mut near = [[(f64::INFINITY, 0usize); PROBES]; 2];
-    let mut probes = [Vector2::zeros(); PROBES];
-    for k in 0..PROBES {
+    // Per probe, the nearest point for the consistent and the drifting map.
+    let nearest = |k: usize| {
         let gk = g[0] + (k * (g[1] - g[0])) / (PROBES - 1);
         let (p, s) = (track.xy[gk], track.s[gk]);
-        probes[k] = p;
+        let mut near: [Option<Near>; 2] = [None; 2];
         let mut t = 0;
         while t < track.len() {
             let between = (track.s[t] - s).abs();
@@ -120,37 +166,24 @@ fn probe(
                     .into_iter()
                     .enumerate()
                 {
-                    if d < near[map][k].0 * r {
-                        near[map][k] = (d / r, t);
+                    if near[map].is_none_or(|n| d < n.ratio * r) {
+                        near[map] = Some(Near {
+                            ratio: d / r,
+                            target: t,
+                            pair: (track.xy[t], p),
+                        });
                     }
                 }
             }
             t += stride;
         }
-    }
-    let maps = if drift > 0.0 { 2 } else { 1 };
-    (0..maps).find_map(|map| {
-        let mut dists: Vec<f64> = near[map].iter().map(|n| n.0).collect();
-        dists.sort_by(f64::total_cmp);
-        if dists[PROBES / 2] >= 1.0 {
-            return None;
-        }
-        // Probes that found a point (at least half of them, by the median).
-        let found = (0..PROBES).filter(|&k| near[map][k].0.is_finite());
-        let mut targets: Vec<usize> = found.clone().map(|k| near[map][k].1).collect();
-        targets.sort_unstable();
-        let pairs: Vec<_> = found
-            .map(|k| (track.xy[near[map][k].1], probes[k]))
-            .collect();
-        let start = match map {
-            0 => Similarity2::identity(),
-            _ => drifted_start(&pairs, length)?,
-        };
-        Some(ProximitySeed {
-            query: g,
-            target: targets[targets.len() / 2],
-            start,
-            drifted: map == 1,
-        })
+        near
+    };
+    let per_probe: [[Option<Near>; 2]; PROBES] = std::array::from_fn(nearest);
+    let near = [per_probe.map(|n| n[0]), per_probe.map(|n| n[1])];
+    seed_of(g, length, &near[0], false).or_else(|| {
+        (drift > 0.0)
+            .then(|| seed_of(g, length, &near[1], true))
+            .flatten()
     })
 }
