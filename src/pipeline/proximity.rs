@@ -156,7 +156,8 @@ fn probe(
     let nearest = |k: usize| {
         let gk = g[0] + (k * (g[1] - g[0])) / (PROBES - 1);
         let (p, s) = (track.xy[gk], track.s[gk]);
-        let mut near: [Option<Near>; 2] = [None; 2];
+        // (ratio, target) per map; the points are looked up once at the end.
+        let mut best = [(f64::INFINITY, 0usize); 2];
         let mut t = 0;
         while t < track.len() {
             let between = (track.s[t] - s).abs();
@@ -166,18 +167,20 @@ fn probe(
                     .into_iter()
                     .enumerate()
                 {
-                    if near[map].is_none_or(|n| d < n.ratio * r) {
-                        near[map] = Some(Near {
-                            ratio: d / r,
-                            target: t,
-                            pair: (track.xy[t], p),
-                        });
+                    if d < best[map].0 * r {
+                        best[map] = (d / r, t);
                     }
                 }
             }
             t += stride;
         }
-        near
+        best.map(|(ratio, t)| {
+            ratio.is_finite().then(|| Near {
+                ratio,
+                target: t,
+                pair: (track.xy[t], p),
+            })
+        })
     };
     let per_probe: [[Option<Near>; 2]; PROBES] = std::array::from_fn(nearest);
     let near = [per_probe.map(|n| n[0]), per_probe.map(|n| n[1])];
