@@ -12,8 +12,6 @@ use super::scan;
 use super::{Exclusion, OnlineConfig};
 use nalgebra::Vector2;
 
-use crate::align::ransac::SplitMix;
-use crate::align::ransac_similarity;
 use crate::geometry::{Plane, Similarity2};
 use crate::matching::{Candidate, Orientation};
 use crate::pipeline::proximity::{radius, seed_of, Near, ProximitySeed, PROBES};
@@ -373,8 +371,7 @@ pub fn verify_all(
         let gate = |sim: &Similarity2, pairs: &[(Vector2<f64>, Vector2<f64>)]| {
             prior_may_pass(sim, pairs, [0.5 * seed_len, room_len], between, config, 1.0)
         };
-        if let Some(v) = verify::verify_gated(&tw.path, &qw.path, &xy, &local, pc, &allowed, &gate)
-        {
+        if let Some(v) = verify::verify(&tw.path, &qw.path, &xy, &local, pc, &allowed, &gate) {
             found.extend(finish(h, &tw, &qw, &v, frame, config, false));
         }
     }
@@ -484,7 +481,7 @@ fn prior_may_pass(
 }
 
 /// The candidate's seed pairs and RANSAC similarity taken on the history
-/// itself (as `verify` takes them on the windows), through `gate`: true
+/// itself (`verify::seed_similarity`, as `verify` on the windows), through `gate`: true
 /// when the gate passes or no similarity is found (verification decides).
 fn pre_gate(
     h: &History,
@@ -492,25 +489,19 @@ fn pre_gate(
     pc: &crate::pipeline::Config,
     gate: impl Fn(&Similarity2, &[(Vector2<f64>, Vector2<f64>)]) -> bool,
 ) -> bool {
-    let (mut s_min, mut s_max) = (f64::INFINITY, f64::NEG_INFINITY);
-    let mut pairs = Vec::new();
     // A gate needs the similarity only roughly: at most 64 pairs.
     let stride = (cand.seed[1] - cand.seed[0]).div_ceil(64).max(1);
-    for b in (cand.seed[0]..=cand.seed[1]).step_by(stride) {
-        let a = cand.target_of(b);
-        if a < 0 || a as usize >= h.sig_grid.len() {
-            continue;
-        }
-        let a = a as usize;
-        pairs.push((h.point_at(h.sig_grid[a]), h.point_at(h.sig_grid[b])));
-        let s = h.sig_s(a);
-        s_min = s_min.min(s);
-        s_max = s_max.max(s);
-    }
-    let mut rng = SplitMix(0x7072_6567 ^ (cand.line as u64) ^ ((cand.query[0] as u64) << 20));
-    let threshold = pc.ransac_threshold * (s_max - s_min);
-    match ransac_similarity(&pairs, threshold, pc.ransac_iterations, &mut rng) {
-        Some((sim, _)) => gate(&sim, &pairs),
+    let seed = verify::seed_similarity(
+        cand,
+        stride,
+        h.sig_grid.len(),
+        |a, b| (h.point_at(h.sig_grid[a]), h.point_at(h.sig_grid[b])),
+        |a| h.sig_s(a),
+        pc,
+        0x7072_6567,
+    );
+    match seed {
+        Some((sim, pairs)) => gate(&sim, &pairs),
         None => true,
     }
 }

@@ -24,23 +24,12 @@ pub struct Verified {
 
 /// Verifies `cand` (query samples aligned to target samples); `query_xy` are
 /// the query track's points, already mirrored when the candidate is.
-pub fn verify(
-    target: &PreparedPath,
-    query: &PreparedPath,
-    query_xy: &[Vector2<f64>],
-    cand: &Candidate,
-    config: &Config,
-    allowed: &dyn Fn(usize, f64) -> bool,
-) -> Option<Verified> {
-    verify_gated(target, query, query_xy, cand, config, allowed, &|_, _| true)
-}
-
-/// [`verify`], with a `gate` that sees the RANSAC similarity (query ->
-/// target) and its sample pairs (target point, query point) and can stop
-/// before the costly growth: a caller that knows no similarity like it can
-/// score high enough says so there.
+/// `gate` sees the RANSAC similarity (query -> target) and its sample pairs
+/// (target point, query point) and can stop before the costly growth: a
+/// caller that knows no similarity like it can score high enough says so
+/// there (`&|_, _| true` otherwise).
 #[allow(clippy::type_complexity)]
-pub fn verify_gated(
+pub fn verify(
     target: &PreparedPath,
     query: &PreparedPath,
     query_xy: &[Vector2<f64>],
@@ -50,24 +39,20 @@ pub fn verify_gated(
     gate: &dyn Fn(&Similarity2, &[(Vector2<f64>, Vector2<f64>)]) -> bool,
 ) -> Option<Verified> {
     let (ts, qs) = (&target.signature, &query.signature);
-    let mut pairs = Vec::new();
-    let (mut s_min, mut s_max) = (f64::INFINITY, f64::NEG_INFINITY);
-    for b in cand.seed[0]..=cand.seed[1] {
-        let a = cand.target_of(b);
-        if a < 0 || a as usize >= ts.len() {
-            continue;
-        }
-        let a = a as usize;
-        pairs.push((
-            target.track.point_at(ts.grid[a]),
-            crate::track::lerp_point(query_xy, qs.grid[b]),
-        ));
-        s_min = s_min.min(ts.s[a]);
-        s_max = s_max.max(ts.s[a]);
-    }
-    let threshold = config.ransac_threshold * (s_max - s_min);
-    let mut rng = SplitMix(0x7475_726e ^ (cand.line as u64) ^ ((cand.query[0] as u64) << 20));
-    let (a_t_b, _) = ransac_similarity(&pairs, threshold, config.ransac_iterations, &mut rng)?;
+    let (a_t_b, pairs) = seed_similarity(
+        cand,
+        1,
+        ts.len(),
+        |a, b| {
+            (
+                target.track.point_at(ts.grid[a]),
+                crate::track::lerp_point(query_xy, qs.grid[b]),
+            )
+        },
+        |a| ts.s[a],
+        config,
+        0x7475_726e,
+    )?;
     if !gate(&a_t_b, &pairs) {
         return None;
     }
@@ -88,6 +73,40 @@ pub fn verify_gated(
     Some(finish(target, query, overlap, cand.clone(), cand.zncc))
 }
 
+/// The RANSAC similarity (query -> target) of a candidate's seed samples,
+/// with the sample pairs it was fitted to: every `stride`-th query sample
+/// `b` of the seed and its aligned target sample `a` (below `target_len`),
+/// as `point(a, b)` = (target point, query point); the inlier threshold is
+/// `config.ransac_threshold` of the target arc (`target_s`) they span.
+/// `salt` keeps the random draws of different callers apart.
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+pub fn seed_similarity(
+    cand: &Candidate,
+    stride: usize,
+    target_len: usize,
+    point: impl Fn(usize, usize) -> (Vector2<f64>, Vector2<f64>),
+    target_s: impl Fn(usize) -> f64,
+    config: &Config,
+    salt: u64,
+) -> Option<(Similarity2, Vec<(Vector2<f64>, Vector2<f64>)>)> {
+    let mut pairs = Vec::new();
+    let (mut s_min, mut s_max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for b in (cand.seed[0]..=cand.seed[1]).step_by(stride.max(1)) {
+        let a = cand.target_of(b);
+        if a < 0 || a as usize >= target_len {
+            continue;
+        }
+        let a = a as usize;
+        pairs.push(point(a, b));
+        s_min = s_min.min(target_s(a));
+        s_max = s_max.max(target_s(a));
+    }
+    let threshold = config.ransac_threshold * (s_max - s_min);
+    let mut rng = SplitMix(salt ^ (cand.line as u64) ^ ((cand.query[0] as u64) << 20));
+    let (a_t_b, _) = ransac_similarity(&pairs, threshold, config.ransac_iterations, &mut rng)?;
+    Some((a_t_b, pairs))
+}
+
 /// Verifies a pooled candidate from its best vote and, when the votes span
 /// more, from their union too (a long union gives context that tells look-
 /// alikes apart, a single clean vote gives a better seed): the better
@@ -101,7 +120,7 @@ pub fn verify_best(
     allowed: &dyn Fn(usize, f64) -> bool,
 ) -> Option<(Verified, f64)> {
     let scored = |c: &Candidate| {
-        verify(target, query, query_xy, c, config, allowed).map(|v| {
+        verify(target, query, query_xy, c, config, allowed, &|_, _| true).map(|v| {
             let s = crate::score::score(&v.evidence, &config.score);
             (v, s)
         })
