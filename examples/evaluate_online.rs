@@ -16,8 +16,8 @@
 //! the ground truth with added drift (heading random walk and scale drift),
 //! `strong` the ground truth through the evaluation's strong drift model
 //! (`eval::drift::DriftModel::strong`, seed `SEED`, default 1).
-//! `MIN_SCORE=x` sets `OnlineConfig::min_score`; `DRIFT_PROBE=1` turns on
-//! `OnlineConfig::drift_probe`.
+//! `MIN_SCORE=x` sets `OnlineConfig::min_score`; `DRIFT_PROBE=0` turns off
+//! `OnlineConfig::drift_probe` (on by default).
 
 use std::path::Path;
 
@@ -72,7 +72,9 @@ fn main() {
         if let Ok(v) = std::env::var("MIN_SCORE") {
             config.min_score = v.parse().expect("MIN_SCORE");
         }
-        config.drift_probe = std::env::var("DRIFT_PROBE").is_ok_and(|v| v == "1");
+        if let Ok(v) = std::env::var("DRIFT_PROBE") {
+            config.drift_probe = v == "1";
+        }
         let mut det = Detector::new(config, Overflow::Block);
         let mut cands: Vec<CandidateEvent> = Vec::new();
         let mut lat = Vec::with_capacity(input.len());
@@ -122,7 +124,7 @@ fn main() {
                     "score {seq} {} {:.4} {} {} at {} q {:?} m {:?}",
                     ok,
                     c.hypothesis.score,
-                    c.proximity,
+                    c.source.name(),
                     c.hypothesis.reversed,
                     c.at_pose,
                     c.hypothesis.a_range,

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The drift probe's candidates checked by the verifier: KITTI 00, 02, 05, 06
 # and 08 ground truth through the strong drift model (seeds 1 and 2), streamed
-# with and without --drift-probe; keyframes are rendered from the ground
+# with (the default) and without the drift probe; keyframes are rendered from the ground
 # truth (pinhole cameras) and the sidecar decides every candidate. Prints per
 # run: candidates, confirmed, true candidates (10 m criterion), confirmed
 # true, confirmed false.
@@ -15,7 +15,7 @@ for seq in 00 02 05 06 08; do
   for seed in 1 2; do
     input="$out/${seq}_s$seed.tum"
     target/release/examples/drifted "$data/kitti_gt/$seq.txt" "$seed" "$input"
-    for probe in "" --drift-probe; do
+    for probe in --no-drift-probe ""; do
       target/release/turnprint stream "$input" --verify --truth "$data/kitti_gt/$seq.txt" \
         --cameras pinhole --json $probe | tail -n 1 | python3 -c "
 import json, sys

@@ -255,8 +255,8 @@ fn merge_writes_tum_and_a_figure() {
 }
 
 #[test]
-fn stream_drift_probe_flag_keeps_the_json_lines_contract() {
-    let out = turnprint(&["stream", "tests/data/00.txt", "--json", "--drift-probe"]);
+fn stream_no_drift_probe_flag_keeps_the_json_lines_contract() {
+    let out = turnprint(&["stream", "tests/data/00.txt", "--json", "--no-drift-probe"]);
     assert!(
         out.status.success(),
         "{}",
@@ -270,6 +270,7 @@ fn stream_drift_probe_flag_keeps_the_json_lines_contract() {
     let (last, candidates) = lines.split_last().unwrap();
     assert_eq!(last["event"], "summary");
     assert!(candidates.iter().all(|c| c["event"] == "candidate"));
+    assert!(candidates.iter().all(|c| c["source"] != "drift-probe"));
     assert_eq!(
         last["candidates"].as_u64().unwrap() as usize,
         candidates.len()

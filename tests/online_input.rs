@@ -230,11 +230,14 @@ fn candidates_carry_a_keyframe_pair_for_the_verifier() {
         assert!((h.a_range[0]..=h.a_range[1]).contains(&k.query_pose));
         assert!((h.b_range[0]..=h.b_range[1]).contains(&k.match_pose));
         // Ground truth: the two keyframes see the same place (within 15 m)
-        // whenever the candidate is a true revisit of a consistent map.
-        assert!(
-            (points[k.query_pose] - points[k.match_pose]).norm() < 15.0,
-            "{k:?}"
-        );
+        // whenever the candidate is a true revisit of a consistent map (the
+        // drifting-map probe's candidates are other roads on this one).
+        if c.source != turnprint::online::Source::DriftProbe {
+            assert!(
+                (points[k.query_pose] - points[k.match_pose]).norm() < 15.0,
+                "{k:?}"
+            );
+        }
         // The verifier's similarity maps the query keyframe near the match
         // keyframe (inverse of the hypothesis).
         #[cfg(feature = "ipc")]

@@ -114,11 +114,12 @@ enum Command {
         /// confirmed loop.
         #[arg(long, requires = "verify")]
         plot: Option<PathBuf>,
-        /// Where nothing is near, also probe with a radius growing with the
-        /// path in between (strongly drifting odometry; more false
-        /// candidates on consistent maps: EVALUATION_ONLINE.md).
+        /// Turn off the drifting-map probe (on by default: where nothing is
+        /// near, it probes with a radius growing with the path in between,
+        /// for strongly drifting odometry; on a consistent map its
+        /// candidates are other roads: EVALUATION_ONLINE.md).
         #[arg(long)]
-        drift_probe: bool,
+        no_drift_probe: bool,
     },
 }
 
@@ -165,11 +166,11 @@ fn main() -> ExitCode {
             truth,
             cameras,
             plot,
-            drift_probe,
+            no_drift_probe,
         } => {
             let config = turnprint::online::OnlineConfig {
                 top_k: top,
-                drift_probe,
+                drift_probe: !no_drift_probe,
                 ..Default::default()
             };
             if verify {

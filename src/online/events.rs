@@ -7,6 +7,29 @@ use serde_json::{json, Value};
 
 use crate::Hypothesis;
 
+/// Which search found a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    /// The shape search (ZNCC of the newest segments against the history).
+    Shape,
+    /// The proximity probe (nearest earlier position in the map's frame).
+    Proximity,
+    /// The drifting-map probe ([`super::OnlineConfig::drift_probe`]): its
+    /// score is low by design, the verifier decides.
+    DriftProbe,
+}
+
+impl Source {
+    /// The name in the JSON events.
+    pub fn name(self) -> &'static str {
+        match self {
+            Source::Shape => "shape",
+            Source::Proximity => "proximity",
+            Source::DriftProbe => "drift-probe",
+        }
+    }
+}
+
 /// A loop-closure candidate produced when a segment was finalised.
 #[derive(Debug, Clone)]
 pub struct CandidateEvent {
@@ -17,9 +40,8 @@ pub struct CandidateEvent {
     /// The hypothesis: `a_range` is the query (later) part, `b_range` the
     /// match; the similarity maps match points onto the query part.
     pub hypothesis: Hypothesis,
-    /// Found by the proximity probe (nearest earlier position) rather than
-    /// the shape search.
-    pub proximity: bool,
+    /// Which search found it.
+    pub source: Source,
     /// The keyframe pair a verifier should compare (when keyframes were
     /// given): see [`CandidateEvent::to_verifier`].
     pub keyframes: Option<KeyframePair>,
@@ -84,7 +106,7 @@ impl CandidateEvent {
             "translation": h.translation,
             "rmse": h.rmse,
             "turning_deg": h.turning_deg,
-            "source": if self.proximity { "proximity" } else { "shape" },
+            "source": self.source.name(),
             "keyframes": self.keyframes,
             "query_keyframes": self.query_keyframes,
             "match_keyframes": self.match_keyframes,

@@ -30,7 +30,7 @@ pub mod worker;
 
 pub use config::{Exclusion, OnlineConfig};
 pub use detector::{Detector, PoseInput, Pushed, Summary};
-pub use events::{CandidateEvent, Ledger, Outcome};
+pub use events::{CandidateEvent, Ledger, Outcome, Source};
 pub use frontend::TrackParams;
 pub use guard::{GuardCounts, Rejection};
 pub use worker::Overflow;

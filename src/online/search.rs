@@ -7,6 +7,7 @@
 use std::collections::HashMap;
 
 use super::correlator::{BlockCorrelator, Piece};
+use super::events::Source;
 use super::history::{History, SpatialIndex, Window};
 use super::scan;
 use super::{Exclusion, OnlineConfig};
@@ -19,6 +20,9 @@ use crate::pipeline::{verify, Verified};
 use crate::score::{loop_score, score};
 use crate::Hypothesis;
 
+/// Largest scale change a drifting-map probe's candidate may imply, either
+/// way (the batch grows at most this far from a seed's scale).
+const DRIFT_SCALE: f64 = 1.5;
 /// Below this fraction of the history's variance a window is flat (as in
 /// the batch correlator).
 const FLAT_FRACTION: f64 = 1e-4;
@@ -40,8 +44,9 @@ pub struct Frame {
 pub struct Found {
     /// The hypothesis: `a_range` the later (query) part, `b_range` the match.
     pub hypothesis: Hypothesis,
-    /// Came from the proximity probe rather than the shape search.
-    pub proximity: bool,
+    /// Which search found it (a drifting-map probe's candidate is emitted
+    /// from [`OnlineConfig::drift_min_score`]).
+    pub source: Source,
 }
 
 impl crate::pipeline::rank::Ranked for Found {
@@ -294,6 +299,7 @@ pub fn verify_all(
     let pc = &config.pipeline;
     let dk = pc.signature.dk;
     let mut found = Vec::new();
+    let cut = config.min_score;
     let window = |g0: usize, g1: usize| {
         h.window(
             g0,
@@ -335,7 +341,15 @@ pub fn verify_all(
         // The gate below, on the history itself with wider slack, before any
         // window is cut (most candidates stop here).
         if !pre_gate(h, cand, pc, |sim, pairs| {
-            prior_may_pass(sim, pairs, [0.5 * seed_len, room_len], between, config, 2.0)
+            prior_may_pass(
+                sim,
+                pairs,
+                [0.5 * seed_len, room_len],
+                between,
+                config,
+                2.0,
+                cut,
+            )
         }) {
             continue;
         }
@@ -369,10 +383,18 @@ pub fn verify_all(
         // drift prior alone keeps them below the cut: known from the RANSAC
         // similarity, before the growth that costs most of the time.
         let gate = |sim: &Similarity2, pairs: &[(Vector2<f64>, Vector2<f64>)]| {
-            prior_may_pass(sim, pairs, [0.5 * seed_len, room_len], between, config, 1.0)
+            prior_may_pass(
+                sim,
+                pairs,
+                [0.5 * seed_len, room_len],
+                between,
+                config,
+                1.0,
+                cut,
+            )
         };
         if let Some(v) = verify::verify(&tw.path, &qw.path, &xy, &local, pc, &allowed, &gate) {
-            found.extend(finish(h, &tw, &qw, &v, frame, config, false));
+            found.extend(finish(h, &tw, &qw, &v, frame, config, Source::Shape));
         }
     }
     if let Some(seed) = &seed {
@@ -391,6 +413,7 @@ pub fn verify_all(
                 between,
                 config,
                 2.0,
+                config.drift_min_score,
             );
         if let (true, Some(qw), Some(tw)) = (
             may_pass,
@@ -411,7 +434,11 @@ pub fn verify_all(
             if let Some(v) =
                 verify::verify_seeded(&tw.path, &qw.path, &xy, local, start, false, pc, &allowed)
             {
-                found.extend(finish(h, &tw, &qw, &v, frame, config, true));
+                let source = match seed.drifted {
+                    true => Source::DriftProbe,
+                    false => Source::Proximity,
+                };
+                found.extend(finish(h, &tw, &qw, &v, frame, config, source));
             }
         }
     }
@@ -428,12 +455,27 @@ pub fn verify_all(
                     f.hypothesis.score,
                     f.hypothesis.a_range,
                     f.hypothesis.b_range,
-                    f.proximity
+                    f.source
                 ))
                 .collect::<Vec<_>>()
         );
     }
-    crate::pipeline::rank::rank(found, config.top_k, config.min_score)
+    // A drifted seed passed the probe's fit check, and its score is low by
+    // design (little turning, a similarity far from identity): it has its
+    // own, lower cut.
+    // Its similarity must keep the scale within a factor DRIFT_SCALE: probe
+    // points that collapse onto a road crossing the window fit it at a
+    // scale near 0, and growing from there can end in a few poses mapped
+    // onto one (regression:
+    // `online_input::candidates_carry_a_keyframe_pair_for_the_verifier`).
+    found.retain(|f| match f.source {
+        Source::DriftProbe => {
+            f.hypothesis.score >= config.drift_min_score
+                && f.hypothesis.scale.ln().abs() <= DRIFT_SCALE.ln()
+        }
+        _ => f.hypothesis.score >= config.min_score,
+    });
+    crate::pipeline::rank::rank(found, config.top_k, f64::NEG_INFINITY)
 }
 
 /// Slack of [`prior_may_pass`] for what growing and refitting may still
@@ -442,7 +484,7 @@ pub fn verify_all(
 const GATE_SLACK: (f64, f64, f64) = (5.0 * std::f64::consts::PI / 180.0, 0.05, 0.25);
 
 /// Whether a candidate with this RANSAC similarity (query -> target) and
-/// these seed pairs can still reach the score cut under the drift prior,
+/// these seed pairs can still reach the score cut `cut` under the drift prior,
 /// for any overlap length in `length` and a distance between the parts up
 /// to `between` plus that length (`loop_score <= sqrt(prior)`), with
 /// [`GATE_SLACK`] times `widen`.
@@ -453,11 +495,12 @@ fn prior_may_pass(
     between: f64,
     config: &OnlineConfig,
     widen: f64,
+    cut: f64,
 ) -> bool {
     let Some(prior) = &config.pipeline.drift_prior else {
         return true;
     };
-    if !config.prior_gate || config.min_score <= 0.0 || pairs.is_empty() {
+    if !config.prior_gate || cut <= 0.0 || pairs.is_empty() {
         return true;
     }
     let (angle_slack, scale_slack, offset_slack) = (
@@ -477,7 +520,7 @@ fn prior_may_pass(
         length,
         between + length[1],
     );
-    crate::score::loop_score_bound(bound) >= config.min_score
+    crate::score::loop_score_bound(bound) >= cut
 }
 
 /// The candidate's seed pairs and RANSAC similarity taken on the history
@@ -516,7 +559,7 @@ fn finish(
     v: &Verified,
     frame: &Frame,
     config: &OnlineConfig,
-    proximity: bool,
+    source: Source,
 ) -> Option<Found> {
     let o = &v.overlap;
     let pose_t = |g: f64| tw.path.pose_of_grid(g);
@@ -584,6 +627,6 @@ fn finish(
             length_ratio: v.evidence.length_ratio,
             correspondences,
         },
-        proximity,
+        source,
     })
 }

@@ -208,7 +208,12 @@ impl WorkerState {
                 sp,
                 segments,
                 2 * self.config.probe_every,
-                self.config.drift_radius(),
+                // A periodic probe covers the newest two probe periods, so
+                // every other one covers each sample once.
+                match segments || self.stats.probes.is_multiple_of(2) {
+                    true => self.config.drift_radius(),
+                    false => 0.0,
+                },
             ),
             _ => None,
         };
@@ -223,7 +228,7 @@ impl WorkerState {
                 query_keyframes: h.keyframes_in(hy.a_range, 8),
                 match_keyframes: h.keyframes_in(hy.b_range, 8),
                 hypothesis: hy,
-                proximity: f.proximity,
+                source: f.source,
             });
             self.next_id += 1;
         }
