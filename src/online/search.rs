@@ -23,6 +23,13 @@ use crate::Hypothesis;
 /// Largest scale change a drifting-map probe's candidate may imply, either
 /// way (the batch grows at most this far from a seed's scale).
 const DRIFT_SCALE: f64 = 1.5;
+/// Shortest drifting-map probe's candidate, as a fraction of the periodic
+/// probe's window (`2 * probe_every` track samples): the seed was a fit of
+/// a whole window, and a stub grown from it is no revisit. On KITTI 06's
+/// monocular estimate such stubs (7-10 poses) paired the racetrack's two
+/// straights, 25-46 m apart, which fisheye cameras facing opposite ways
+/// confirmed; a whole window (1.0) lost ORB 08's revisit.
+const DRIFT_MIN_WINDOW: f64 = 0.5;
 /// Below this fraction of the history's variance a window is flat (as in
 /// the batch correlator).
 const FLAT_FRACTION: f64 = 1e-4;
@@ -468,10 +475,14 @@ pub fn verify_all(
     // scale near 0, and growing from there can end in a few poses mapped
     // onto one (regression:
     // `online_input::candidates_carry_a_keyframe_pair_for_the_verifier`).
+    // And it must be at least DRIFT_MIN_WINDOW of a periodic probe's window
+    // long (regression: `stream_verify`, fisheye cameras on KITTI 06).
+    let min_drift_length = DRIFT_MIN_WINDOW * (2 * config.probe_every) as f64 * frame.step;
     found.retain(|f| match f.source {
         Source::DriftProbe => {
             f.hypothesis.score >= config.drift_min_score
                 && f.hypothesis.scale.ln().abs() <= DRIFT_SCALE.ln()
+                && f.hypothesis.length >= min_drift_length
         }
         _ => f.hypothesis.score >= config.min_score,
     });
