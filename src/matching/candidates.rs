@@ -216,6 +216,22 @@ impl Candidate {
     }
 }
 
+/// The `strongest` candidates (`candidates` sorted by strength), then the
+/// `best_correlating` of the rest by ZNCC: the ones worth verifying.
+pub fn to_verify(
+    candidates: &[Candidate],
+    strongest: usize,
+    best_correlating: usize,
+) -> Vec<&Candidate> {
+    let mut rest: Vec<&Candidate> = candidates.iter().skip(strongest).collect();
+    rest.sort_by(|x, y| y.zncc.total_cmp(&x.zncc));
+    candidates
+        .iter()
+        .take(strongest)
+        .chain(rest.into_iter().take(best_correlating))
+        .collect()
+}
+
 /// Merges a vote into the pool entry of its line whose query range it
 /// overlaps (parts of one line far apart are coincidences, kept apart).
 fn pool(

@@ -19,7 +19,7 @@ pub use merge::merge;
 pub use prepare::PreparedPath;
 pub use verify::Verified;
 
-use crate::matching::candidates::{queries, search};
+use crate::matching::candidates::{queries, search, to_verify};
 use crate::matching::turns::{propose, turns};
 use crate::matching::Correlator;
 use crate::score::{loop_score, score};
@@ -75,12 +75,15 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
     // Geometry decides, on every core: the strongest ZNCC candidates and
     // the turn-pair proposals, verified the same way.
     let xy = [pb.points(false), pb.points(true)];
-    let jobs: Vec<Job> = candidates
-        .iter()
-        .take(config.max_candidates)
-        .map(Job::Zncc)
-        .chain(proposals.iter().map(Job::Turns))
-        .collect();
+    let jobs: Vec<Job> = to_verify(
+        &candidates,
+        config.max_candidates,
+        config.max_zncc_candidates,
+    )
+    .into_iter()
+    .map(Job::Zncc)
+    .chain(proposals.iter().map(Job::Turns))
+    .collect();
     let hypotheses = parallel_map(&jobs, |job| match job {
         Job::Zncc(cand) => {
             let mirrored = cand.orientation.mirrored;
@@ -180,12 +183,15 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     // from the similarity of the probe points onto their nearest points.
     let drift = config.drift_prior.map_or(0.0, |p| p.position);
     let seeds = proximity::proximity_seeds(pa, drift);
-    let jobs: Vec<LoopJob> = candidates
-        .iter()
-        .take(config.max_candidates)
-        .map(LoopJob::Zncc)
-        .chain(seeds.iter().map(LoopJob::Proximity))
-        .collect();
+    let jobs: Vec<LoopJob> = to_verify(
+        &candidates,
+        config.max_candidates,
+        config.max_zncc_candidates,
+    )
+    .into_iter()
+    .map(LoopJob::Zncc)
+    .chain(seeds.iter().map(LoopJob::Proximity))
+    .collect();
     // Shape candidates and proximity seeds verified the same way, on every
     // core.
     let verified = parallel_map(&jobs, |job| match job {
