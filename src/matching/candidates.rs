@@ -217,19 +217,32 @@ impl Candidate {
 }
 
 /// The `strongest` candidates (`candidates` sorted by strength), then the
-/// `best_correlating` of the rest by ZNCC: the ones worth verifying.
+/// `best_correlating` of the rest by ZNCC that lie on none of the chosen
+/// alignment lines (within `line_tolerance` samples; growing one of those
+/// covers them): the ones worth verifying.
 pub fn to_verify(
     candidates: &[Candidate],
     strongest: usize,
     best_correlating: usize,
+    line_tolerance: usize,
 ) -> Vec<&Candidate> {
+    let mut chosen: Vec<&Candidate> = candidates.iter().take(strongest).collect();
     let mut rest: Vec<&Candidate> = candidates.iter().skip(strongest).collect();
     rest.sort_by(|x, y| y.zncc.total_cmp(&x.zncc));
-    candidates
-        .iter()
-        .take(strongest)
-        .chain(rest.into_iter().take(best_correlating))
-        .collect()
+    let mut extra = 0;
+    for c in rest {
+        if extra >= best_correlating {
+            break;
+        }
+        let on_chosen_line = chosen.iter().any(|k| {
+            k.orientation == c.orientation && k.line.abs_diff(c.line) <= line_tolerance as u64
+        });
+        if !on_chosen_line {
+            chosen.push(c);
+            extra += 1;
+        }
+    }
+    chosen
 }
 
 /// Merges a vote into the pool entry of its line whose query range it

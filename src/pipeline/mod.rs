@@ -79,6 +79,7 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
         &candidates,
         config.max_candidates,
         config.max_zncc_candidates,
+        config.query.line_tolerance,
     )
     .into_iter()
     .map(Job::Zncc)
@@ -187,6 +188,7 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
         &candidates,
         config.max_candidates,
         config.max_zncc_candidates,
+        config.query.line_tolerance,
     )
     .into_iter()
     .map(LoopJob::Zncc)
