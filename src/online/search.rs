@@ -345,19 +345,20 @@ pub fn verify_all(
                 .max(s(gt1 + room) - s(gt0.saturating_sub(room)))
         };
         let between = (h.sig_s(q0) - h.sig_s(t1)).abs();
-        // The gate below, on the history itself with wider slack, before any
-        // window is cut (most candidates stop here).
-        if !pre_gate(h, cand, pc, |sim, pairs| {
+        let may_pass = |sim: &Similarity2, pairs: &[(Vector2<f64>, Vector2<f64>)], widen| {
             prior_may_pass(
                 sim,
                 pairs,
                 [0.5 * seed_len, room_len],
                 between,
                 config,
-                2.0,
+                widen,
                 cut,
             )
-        }) {
+        };
+        // The gate below, on the history itself with wider slack, before any
+        // window is cut (most candidates stop here).
+        if !pre_gate(h, cand, pc, |sim, pairs| may_pass(sim, pairs, 2.0)) {
             continue;
         }
         let Some(qw) = window(gq0.saturating_sub(room), gq1 + room) else {
@@ -389,17 +390,8 @@ pub fn verify_all(
         // Most shape candidates are look-alikes far from identity whose
         // drift prior alone keeps them below the cut: known from the RANSAC
         // similarity, before the growth that costs most of the time.
-        let gate = |sim: &Similarity2, pairs: &[(Vector2<f64>, Vector2<f64>)]| {
-            prior_may_pass(
-                sim,
-                pairs,
-                [0.5 * seed_len, room_len],
-                between,
-                config,
-                1.0,
-                cut,
-            )
-        };
+        let gate =
+            |sim: &Similarity2, pairs: &[(Vector2<f64>, Vector2<f64>)]| may_pass(sim, pairs, 1.0);
         if let Some(v) = verify::verify(&tw.path, &qw.path, &xy, &local, pc, &allowed, &gate) {
             found.extend(finish(h, &tw, &qw, &v, frame, config, Source::Shape));
         }
