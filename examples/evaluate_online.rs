@@ -11,7 +11,7 @@
 //! event before that candidate's `at_pose`.
 //!
 //! Usage: `cargo run --release --example evaluate_online -- [gt|orb|drift] [SEQ...]`
-//! (data from ../shared/data). `gt` streams the ground truth, `orb` the
+//! (data from ../shared/data, or `DATA=dir`). `gt` streams the ground truth, `orb` the
 //! monocular ORB-SLAM2 estimate (paired to GT frames by timestamp), `drift`
 //! the ground truth with added drift (heading random walk and scale drift),
 //! `strong` the ground truth through the evaluation's strong drift model
@@ -25,7 +25,10 @@ use nalgebra::{Rotation3, Vector3};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
 
-const DATA: &str = "/work/shared/data";
+/// The shared data, relative to the project root (`DATA=dir` to change).
+fn data_dir() -> String {
+    std::env::var("DATA").unwrap_or_else(|_| "../shared/data".into())
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -49,7 +52,7 @@ fn main() {
     let mut delays_all = Vec::new();
     for seq in &seqs {
         let gt = read_trajectory(
-            Path::new(&format!("{DATA}/kitti_gt/{seq}.txt")),
+            Path::new(&format!("{}/kitti_gt/{seq}.txt", data_dir())),
             Format::Kitti,
         )
         .expect("gt");
@@ -238,15 +241,19 @@ fn is_correct(c: &CandidateEvent, g: &[Vector3<f64>]) -> bool {
 /// ORB-SLAM2 estimate paired to GT frames by timestamp.
 fn orb_paired(seq: &str, n_gt: usize) -> (Vec<Vector3<f64>>, Vec<usize>) {
     let orb = read_trajectory(
-        Path::new(&format!("{DATA}/kitti_orbslam2_vio/{seq}_orbslam2_tum.txt")),
+        Path::new(&format!(
+            "{}/kitti_orbslam2_vio/{seq}_orbslam2_tum.txt",
+            data_dir()
+        )),
         Format::Tum,
     )
     .expect("orb");
-    let times: Vec<f64> = std::fs::read_to_string(format!("{DATA}/kitti_gt/{seq}_times.txt"))
-        .expect("times")
-        .split_whitespace()
-        .filter_map(|s| s.parse().ok())
-        .collect();
+    let times: Vec<f64> =
+        std::fs::read_to_string(format!("{}/kitti_gt/{seq}_times.txt", data_dir()))
+            .expect("times")
+            .split_whitespace()
+            .filter_map(|s| s.parse().ok())
+            .collect();
     let mut input = Vec::new();
     let mut frames = Vec::new();
     for p in &orb.poses {
