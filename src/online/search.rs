@@ -459,26 +459,31 @@ pub fn verify_all(
                 .collect::<Vec<_>>()
         );
     }
-    // A drifted seed passed the probe's fit check, and its score is low by
-    // design (little turning, a similarity far from identity): it has its
-    // own, lower cut.
-    // Its similarity must keep the scale within a factor DRIFT_SCALE: probe
-    // points that collapse onto a road crossing the window fit it at a
-    // scale near 0, and growing from there can end in a few poses mapped
-    // onto one (regression:
-    // `online_input::candidates_carry_a_keyframe_pair_for_the_verifier`).
-    // And it must be at least DRIFT_MIN_WINDOW of a periodic probe's window
-    // long (regression: `stream_verify`, fisheye cameras on KITTI 06).
-    let min_drift_length = DRIFT_MIN_WINDOW * (2 * config.probe_every) as f64 * frame.step;
-    found.retain(|f| match f.source {
-        Source::DriftProbe => {
-            f.hypothesis.score >= config.drift_min_score
-                && f.hypothesis.scale.ln().abs() <= DRIFT_SCALE.ln()
-                && f.hypothesis.length >= min_drift_length
-        }
-        _ => f.hypothesis.score >= config.min_score,
-    });
+    found.retain(|f| emitted(f, config, frame.step));
     crate::pipeline::rank::rank(found, config.top_k, f64::NEG_INFINITY)
+}
+
+/// Whether a candidate is emitted: its score reaches the cut of its
+/// source. A drifting-map probe's candidate has passed the probe's fit
+/// check and scores low by design (little turning, a similarity far from
+/// identity), so it has its own lower cut; it must also keep the scale
+/// within [`DRIFT_SCALE`] (probe points that collapse onto a road crossing
+/// the window fit it at a scale near 0, and growing from there ended in
+/// five poses mapped onto one: regression
+/// `online_input::candidates_carry_a_keyframe_pair_for_the_verifier`) and
+/// be at least [`DRIFT_MIN_WINDOW`] of a periodic probe's window long
+/// (regression: `stream_verify`, fisheye cameras on KITTI 06). `step` is
+/// the track grid step.
+fn emitted(f: &Found, config: &OnlineConfig, step: f64) -> bool {
+    let h = &f.hypothesis;
+    match f.source {
+        Source::DriftProbe => {
+            h.score >= config.drift_min_score
+                && h.scale.ln().abs() <= DRIFT_SCALE.ln()
+                && h.length >= DRIFT_MIN_WINDOW * (2 * config.probe_every) as f64 * step
+        }
+        Source::Shape | Source::Proximity => h.score >= config.min_score,
+    }
 }
 
 /// Slack of [`prior_may_pass`] for what growing and refitting may still

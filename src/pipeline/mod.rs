@@ -75,16 +75,11 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
     // Geometry decides, on every core: the strongest ZNCC candidates and
     // the turn-pair proposals, verified the same way.
     let xy = [pb.points(false), pb.points(true)];
-    let jobs: Vec<Job> = to_verify(
-        &candidates,
-        config.max_candidates,
-        config.max_zncc_candidates,
-        config.query.line_tolerance,
-    )
-    .into_iter()
-    .map(Job::Zncc)
-    .chain(proposals.iter().map(Job::Turns))
-    .collect();
+    let jobs: Vec<Job> = worth_verifying(&candidates, config)
+        .into_iter()
+        .map(Job::Zncc)
+        .chain(proposals.iter().map(Job::Turns))
+        .collect();
     let hypotheses = parallel_map(&jobs, |job| match job {
         Job::Zncc(cand) => {
             let mirrored = cand.orientation.mirrored;
@@ -107,6 +102,19 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
         }
     });
     rank::rank(hypotheses, config.top_k, config.min_score)
+}
+
+/// The shape candidates to verify under `config`'s budget.
+fn worth_verifying<'a>(
+    candidates: &'a [crate::matching::Candidate],
+    config: &Config,
+) -> Vec<&'a crate::matching::Candidate> {
+    to_verify(
+        candidates,
+        config.max_candidates,
+        config.max_zncc_candidates,
+        config.query.line_tolerance,
+    )
 }
 
 /// One verification to run.
@@ -184,16 +192,11 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     // from the similarity of the probe points onto their nearest points.
     let drift = config.drift_prior.map_or(0.0, |p| p.position);
     let seeds = proximity::proximity_seeds(pa, drift);
-    let jobs: Vec<LoopJob> = to_verify(
-        &candidates,
-        config.max_candidates,
-        config.max_zncc_candidates,
-        config.query.line_tolerance,
-    )
-    .into_iter()
-    .map(LoopJob::Zncc)
-    .chain(seeds.iter().map(LoopJob::Proximity))
-    .collect();
+    let jobs: Vec<LoopJob> = worth_verifying(&candidates, config)
+        .into_iter()
+        .map(LoopJob::Zncc)
+        .chain(seeds.iter().map(LoopJob::Proximity))
+        .collect();
     // Shape candidates and proximity seeds verified the same way, on every
     // core.
     let verified = parallel_map(&jobs, |job| match job {
