@@ -261,37 +261,6 @@ impl SpatialIndex {
         }
     }
 
-    /// Nearest indexed sample to `p` within `radius` that passes `allowed`.
-    pub fn nearest(
-        &self,
-        h: &History,
-        p: &Vector2<f64>,
-        radius: f64,
-        allowed: impl Fn(usize) -> bool,
-    ) -> Option<(f64, usize)> {
-        let r = (radius / self.cell).ceil() as i32;
-        if r > 64 {
-            return None;
-        }
-        let (cx, cy) = self.key(p);
-        let mut best: Option<(f64, usize)> = None;
-        for dx in -r..=r {
-            for dy in -r..=r {
-                let Some(list) = self.cells.get(&(cx + dx, cy + dy)) else {
-                    continue;
-                };
-                for &i in list {
-                    let i = i as usize;
-                    let d = (h.point(i) - p).norm();
-                    if d <= radius && best.is_none_or(|b| d < b.0) && allowed(i) {
-                        best = Some((d, i));
-                    }
-                }
-            }
-        }
-        best
-    }
-
     /// For each of `points`, the indexed sample minimising
     /// `distance / radius(k, t)` among those within `max_radius` of it that
     /// pass `allowed(k, t)`, with that ratio: the drifting map's probe, whose

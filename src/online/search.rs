@@ -241,6 +241,9 @@ pub fn proximity_seed(
 /// so a probe costs the same at any length of history. (8 cells gave the
 /// same candidates on KITTI, at more time.)
 const DRIFT_CELLS: i32 = 4;
+/// The consistent map's probe radius is a quarter of its window, within a
+/// cell or two; this only bounds a degenerate window.
+const CONSISTENT_CELLS: i32 = 64;
 
 /// The probe of track samples `[g0, g1]`, as the batch proximity seeds
 /// (`pipeline::proximity`): each probe point's nearest earlier sample (at
@@ -272,11 +275,12 @@ pub fn probe(
             pair: (h.point(t), probes[k].0),
         })
     };
+    let points = probes.map(|p| p.0);
+    // The consistent map's radius first (one scan of the cells around the
+    // window), then, where that finds nothing, the drifting map's.
     let r = radius(length, 0.0, 0.0);
-    let consistent: [Option<Near>; PROBES] = std::array::from_fn(|k| {
-        let found = spatial.nearest(h, &probes[k].0, r, |t| allowed(k, t));
-        near(k, found.map(|(d, t)| (d / r, t)))
-    });
+    let found = spatial.nearest_scaled(h, &points, r, CONSISTENT_CELLS, |_, _| r, allowed);
+    let consistent: [Option<Near>; PROBES] = std::array::from_fn(|k| near(k, found[k]));
     seed_of([g0, g1], length, &consistent, false).or_else(|| {
         if drift <= 0.0 {
             return None;
@@ -284,7 +288,7 @@ pub fn probe(
         // Every earlier part lies at most the whole path back.
         let found = spatial.nearest_scaled(
             h,
-            &probes.map(|p| p.0),
+            &points,
             radius(length, drift, h.s[g1]),
             DRIFT_CELLS,
             |k, t| radius(length, drift, (probes[k].1 - h.s[t]).abs()),
@@ -306,7 +310,6 @@ pub fn verify_all(
     let pc = &config.pipeline;
     let dk = pc.signature.dk;
     let mut found = Vec::new();
-    let cut = config.min_score;
     let window = |g0: usize, g1: usize| {
         h.window(
             g0,
@@ -353,7 +356,7 @@ pub fn verify_all(
                 between,
                 config,
                 widen,
-                cut,
+                config.min_score,
             )
         };
         // The gate below, on the history itself with wider slack, before any

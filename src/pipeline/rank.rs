@@ -1,5 +1,5 @@
-//! Ranking: drop weak ones, sort by score, drop duplicates (both ranges mostly shared), keep
-//! the top k.
+//! Ranking: drop the weak, sort by score, drop duplicates (both ranges
+//! mostly shared), keep the top k.
 
 use crate::Hypothesis;
 
