@@ -104,13 +104,23 @@ pub fn grow_and_refit(
         }
         let project = |g: usize, predicted: Option<(f64, f64)>| -> Option<Match> {
             let p = sim.apply(&query_xy[g]);
-            let proj = target_poly.project_within(&p, tol, |v| {
-                allowed(g, v) && predicted.is_none_or(|(arc, w)| (arc_of(v) - arc).abs() <= w)
-            })?;
+            let proj = match predicted {
+                // Growth knows where along the target the point must land:
+                // only the segments within that arc window are looked at.
+                Some((arc, w)) => target_poly.project_among(
+                    &p,
+                    tol,
+                    segments_within(&target.s, arc - w, arc + w),
+                    |v| allowed(g, v) && (arc_of(v) - arc).abs() <= w,
+                ),
+                None => target_poly.project_within(&p, tol, |v| allowed(g, v)),
+            }?;
+            // The target's own arc length (a window of a longer path starts
+            // where that path is, not at 0), as the predictions use.
             Some(Match {
                 query: g,
                 vertex: proj.vertex,
-                arc: proj.arc,
+                arc: arc_of(proj.vertex),
                 distance: proj.distance,
             })
         };
@@ -214,11 +224,20 @@ pub fn grow_and_refit(
     result
 }
 
+/// The segments (segment `i` joins samples `i` and `i + 1`) holding a point
+/// whose arc length `s` lies in `[lo, hi]` (`s` non-decreasing).
+fn segments_within(s: &[f64], lo: f64, hi: f64) -> std::ops::Range<usize> {
+    let first = s.partition_point(|&x| x < lo).saturating_sub(1);
+    let end = s.partition_point(|&x| x <= hi);
+    first..end.max(first)
+}
+
 /// One query grid sample matched to a point of the target.
 #[derive(Debug, Clone, Copy)]
 struct Match {
     query: usize,
     vertex: f64,
+    /// Arc length of the target track at `vertex`.
     arc: f64,
     distance: f64,
 }

@@ -234,42 +234,74 @@ impl Polyline2 {
         }
         let mut near = NEAR.take();
         self.near_runs(DVec2::new(p.x, p.y), max_dist, &mut near);
-        let max2 = max_dist * max_dist;
-        let mut best: Option<(f64, usize, f64)> = None;
+        let mut best = None;
         // Runs nearest first: the scan stops at the first run whose box is
         // farther than the best point found.
         for (box2, run) in near.drain(..) {
-            if best.is_some_and(|b| b.0 < box2) {
+            if best.is_some_and(|b: (f64, usize, f64)| b.0 < box2) {
                 break;
             }
-            for i in run {
-                let (a, b) = (self.vertices[i], self.vertices[i + 1]);
-                let ab = b - a;
-                let len2 = ab.norm_squared();
-                let t = if len2 > 0.0 {
-                    ((p - a).dot(&ab) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let d2 = (a + ab * t - p).norm_squared();
-                if d2 > max2 || best.is_some_and(|b| b.0 <= d2) {
-                    continue;
-                }
-                if !allowed(i as f64 + t) {
-                    continue;
-                }
-                best = Some((d2, i, t));
-            }
+            best = self.nearest_in(p, max_dist, run, &allowed, best);
         }
         NEAR.set(near);
-        best.map(|(d2, i, t)| {
-            let (a0, a1) = (self.arc[i], self.arc[i + 1]);
-            Projection {
-                distance: d2.sqrt(),
-                arc: a0 + t * (a1 - a0),
-                vertex: i as f64 + t,
+        best.map(|b| self.projection(b))
+    }
+
+    /// [`Polyline2::project_within`] among segments `segments` only (segment
+    /// `i` joins vertices `i` and `i + 1`): a caller that knows where along
+    /// the polyline the point must land skips the index.
+    pub fn project_among(
+        &self,
+        p: &Vector2<f64>,
+        max_dist: f64,
+        segments: Range<usize>,
+        allowed: impl Fn(f64) -> bool,
+    ) -> Option<Projection> {
+        let segments = segments.start..segments.end.min(self.vertices.len().saturating_sub(1));
+        self.nearest_in(p, max_dist, segments, &allowed, None)
+            .map(|b| self.projection(b))
+    }
+
+    /// The nearest allowed point of `segments` within `max_dist` of `p`, as
+    /// (squared distance, segment, fraction), if nearer than `best`.
+    fn nearest_in(
+        &self,
+        p: &Vector2<f64>,
+        max_dist: f64,
+        segments: Range<usize>,
+        allowed: &impl Fn(f64) -> bool,
+        mut best: Option<(f64, usize, f64)>,
+    ) -> Option<(f64, usize, f64)> {
+        let max2 = max_dist * max_dist;
+        for i in segments {
+            let (a, b) = (self.vertices[i], self.vertices[i + 1]);
+            let ab = b - a;
+            let len2 = ab.norm_squared();
+            let t = if len2 > 0.0 {
+                ((p - a).dot(&ab) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let d2 = (a + ab * t - p).norm_squared();
+            if d2 > max2 || best.is_some_and(|b| b.0 <= d2) {
+                continue;
             }
-        })
+            if !allowed(i as f64 + t) {
+                continue;
+            }
+            best = Some((d2, i, t));
+        }
+        best
+    }
+
+    /// The projection at fraction `t` of segment `i`, `d2` away.
+    fn projection(&self, (d2, i, t): (f64, usize, f64)) -> Projection {
+        let (a0, a1) = (self.arc[i], self.arc[i + 1]);
+        Projection {
+            distance: d2.sqrt(),
+            arc: a0 + t * (a1 - a0),
+            vertex: i as f64 + t,
+        }
     }
 
     /// Total length.
