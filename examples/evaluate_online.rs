@@ -16,7 +16,8 @@
 //! the ground truth with added drift (heading random walk and scale drift),
 //! `strong` the ground truth through the evaluation's strong drift model
 //! (`eval::drift::DriftModel::strong`, seed `SEED`, default 1).
-//! `MIN_SCORE=x` sets `OnlineConfig::min_score`; `DRIFT_PROBE=0` turns off
+//! `MIN_SCORE=x` sets `OnlineConfig::min_score`, `DRIFT_MIN_SCORE=x`
+//! `OnlineConfig::drift_min_score`; `DRIFT_PROBE=0` turns off
 //! `OnlineConfig::drift_probe` (on by default).
 
 use std::path::Path;
@@ -74,6 +75,9 @@ fn main() {
         let mut config = OnlineConfig::default();
         if let Ok(v) = std::env::var("MIN_SCORE") {
             config.min_score = v.parse().expect("MIN_SCORE");
+        }
+        if let Ok(v) = std::env::var("DRIFT_MIN_SCORE") {
+            config.drift_min_score = v.parse().expect("DRIFT_MIN_SCORE");
         }
         if let Ok(v) = std::env::var("DRIFT_PROBE") {
             config.drift_probe = v == "1";

@@ -25,6 +25,10 @@ pub struct GrowConfig {
     pub points_per_seed: usize,
     /// Misses in a row that end the growth.
     pub max_misses: usize,
+    /// The rounds stop once a refit moves no matched point by more than
+    /// this fraction of the tolerance (0: only when the range and residual
+    /// stop changing): the next round would find the same points.
+    pub settle: f64,
 }
 
 impl Default for GrowConfig {
@@ -35,6 +39,7 @@ impl Default for GrowConfig {
             rounds: 8,
             points_per_seed: 120,
             max_misses: 3,
+            settle: 0.0,
         }
     }
 }
@@ -193,14 +198,19 @@ pub fn grow_and_refit(
         if (refit.scale / a_T_b.scale).ln().abs() > MAX_SCALE_CHANGE.ln() {
             return result;
         }
+        let moved = matched
+            .iter()
+            .map(|m| (refit.apply(&query_xy[m.query]) - sim.apply(&query_xy[m.query])).norm())
+            .fold(0.0, f64::max);
         sim = refit;
         let residuals: Vec<f64> = pairs
             .iter()
             .map(|(a, b)| (sim.apply(b) - a).norm())
             .collect();
         let rmse = (residuals.iter().map(|d| d * d).sum::<f64>() / residuals.len() as f64).sqrt();
-        let converged = (last_rmse - rmse).abs() <= 0.02 * rmse
-            && result.as_ref().is_some_and(|r: &Overlap| r.query == range);
+        let converged = ((last_rmse - rmse).abs() <= 0.02 * rmse
+            && result.as_ref().is_some_and(|r: &Overlap| r.query == range))
+            || (result.is_some() && moved <= config.settle * tol);
         last_rmse = rmse;
         let (tmin, tmax) = matched
             .iter()

@@ -26,10 +26,12 @@ const DRIFT_SCALE: f64 = 1.5;
 /// Shortest drifting-map probe's candidate, as a fraction of the periodic
 /// probe's window (`2 * probe_every` track samples): the seed was a fit of
 /// a whole window, and a stub grown from it is no revisit. On KITTI 06's
-/// monocular estimate such stubs (7-10 poses) paired the racetrack's two
-/// straights, 25-46 m apart, which fisheye cameras facing opposite ways
-/// confirmed; a whole window (1.0) lost ORB 08's revisit.
-const DRIFT_MIN_WINDOW: f64 = 0.5;
+/// monocular estimate such stubs (12-15 poses, 0.4-0.5 of a window once
+/// growth follows the road) paired the racetrack's two straights, 16-46 m
+/// apart, which fisheye cameras facing opposite ways confirmed; the true
+/// drift-probe candidates of 06 and 08 cover 0.9-2 windows, and a whole
+/// window (1.0) lost ORB 08's revisit (0.90).
+const DRIFT_MIN_WINDOW: f64 = 0.75;
 /// Below this fraction of the history's variance a window is flat (as in
 /// the batch correlator).
 const FLAT_FRACTION: f64 = 1e-4;
