@@ -283,3 +283,45 @@ fn consistent_line(
     }
     best
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A window cut from the online history keeps the history's arc
+    /// lengths, so its first sample is far from arc 0. Growth predicted
+    /// along the polyline's own arc (from 0) and checked against the
+    /// track's: every step missed, and overlaps stayed at their seeds.
+    #[test]
+    fn growth_follows_the_road_on_a_window_of_a_longer_path() {
+        let road: Vec<Vector2<f64>> = (0..400)
+            .map(|i| {
+                let t = i as f64 * 0.5;
+                Vector2::new(t, 10.0 * (t / 15.0).sin())
+            })
+            .collect();
+        let mut target = Track::build(&road).expect("a moving path");
+        for s in &mut target.s {
+            *s += 1.0e4;
+        }
+        let polyline = Polyline2::new(&target.xy);
+        let n = target.xy.len();
+        let seed = [n / 2 - 10, n / 2 + 10];
+        let overlap = grow_and_refit(
+            &target,
+            &polyline,
+            &target,
+            &target.xy,
+            seed,
+            Similarity2::identity(),
+            &GrowConfig::default(),
+            &|_, _| true,
+        )
+        .expect("the seed lies on the road");
+        assert!(
+            overlap.query[0] < n / 4 && overlap.query[1] > 3 * n / 4,
+            "grown {:?} of {n} samples from {seed:?}",
+            overlap.query
+        );
+    }
+}

@@ -349,6 +349,23 @@ mod tests {
     }
 
     #[test]
+    fn projecting_among_some_segments_matches_brute_force_on_them() {
+        let pts = zigzag(300);
+        let line = Polyline2::new(&pts);
+        for k in 0..50 {
+            let p = Vector2::new(k as f64 * 6.1 - 3.0, (k % 9) as f64 - 2.0);
+            let segments = (k * 5)..(k * 5 + 40);
+            let end = segments.end.min(pts.len() - 1);
+            let d = brute(&pts[segments.start..=end], &p);
+            let got = line
+                .project_among(&p, f64::INFINITY, segments.clone(), |_| true)
+                .expect("a nearest point");
+            assert!((got.distance - d).abs() < 1e-12, "{k}: {got:?} vs {d}");
+            assert!(segments.contains(&(got.vertex.floor() as usize)) || got.vertex == end as f64);
+        }
+    }
+
+    #[test]
     fn a_window_of_a_shared_index_equals_its_own_polyline() {
         let pts = zigzag(1000);
         let mut index = PathIndex::default();
