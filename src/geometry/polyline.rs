@@ -1,5 +1,6 @@
-//! A 2D polyline with arc length, for nearest-point queries: how far a mapped
-//! point of one path is from the other path, and where along it.
+//! A 2D polyline for nearest-point queries: how far a mapped point of one
+//! path is from the other path, and where along it (as a fractional vertex
+//! index; the arc length there is the track's, so there is one arc length).
 //!
 //! The index is a parry2d BVH over runs of `CHUNK` consecutive segments
 //! rather than over single segments: a path is spatially coherent, so a run's
@@ -29,10 +30,9 @@ const PATH_CHUNK: usize = 16;
 /// walking a tree.
 const FLAT_LEAVES: usize = 128;
 
-/// A polyline, the arc length at each vertex, and its BVH.
+/// A polyline and its BVH.
 pub struct Polyline2 {
     vertices: Vec<Vector2<f64>>,
-    arc: Vec<f64>,
     index: Index,
 }
 
@@ -53,8 +53,6 @@ enum Index {
 pub struct Projection {
     /// Distance from the query point.
     pub distance: f64,
-    /// Arc length of the nearest point along the polyline.
-    pub arc: f64,
     /// Fractional vertex index of the nearest point.
     pub vertex: f64,
 }
@@ -125,17 +123,8 @@ impl Polyline2 {
     }
 
     fn with_index(points: &[Vector2<f64>], index: Index) -> Self {
-        let mut arc = Vec::with_capacity(points.len());
-        let mut acc = 0.0;
-        for (i, p) in points.iter().enumerate() {
-            if i > 0 {
-                acc += (p - points[i - 1]).norm();
-            }
-            arc.push(acc);
-        }
         Polyline2 {
             vertices: points.to_vec(),
-            arc,
             index,
         }
     }
@@ -244,7 +233,7 @@ impl Polyline2 {
             best = self.nearest_in(p, max_dist, run, &allowed, best);
         }
         NEAR.set(near);
-        best.map(|b| self.projection(b))
+        best.map(projection)
     }
 
     /// [`Polyline2::project_within`] among segments `segments` only (segment
@@ -259,7 +248,7 @@ impl Polyline2 {
     ) -> Option<Projection> {
         let segments = segments.start..segments.end.min(self.vertices.len().saturating_sub(1));
         self.nearest_in(p, max_dist, segments, &allowed, None)
-            .map(|b| self.projection(b))
+            .map(projection)
     }
 
     /// The nearest allowed point of `segments` within `max_dist` of `p`, as
@@ -293,20 +282,13 @@ impl Polyline2 {
         }
         best
     }
+}
 
-    /// The projection at fraction `t` of segment `i`, `d2` away.
-    fn projection(&self, (d2, i, t): (f64, usize, f64)) -> Projection {
-        let (a0, a1) = (self.arc[i], self.arc[i + 1]);
-        Projection {
-            distance: d2.sqrt(),
-            arc: a0 + t * (a1 - a0),
-            vertex: i as f64 + t,
-        }
-    }
-
-    /// Total length.
-    pub fn length(&self) -> f64 {
-        self.arc.last().copied().unwrap_or(0.0)
+/// The projection at fraction `t` of segment `i`, `d2` away.
+fn projection((d2, i, t): (f64, usize, f64)) -> Projection {
+    Projection {
+        distance: d2.sqrt(),
+        vertex: i as f64 + t,
     }
 }
 
