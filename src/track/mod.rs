@@ -95,9 +95,13 @@ impl Track {
         self.xy.is_empty()
     }
 
-    /// Total arc length.
+    /// Total arc length (from the first sample: a window of the online
+    /// history keeps the history's arc, which does not start at 0).
     pub fn length(&self) -> f64 {
-        self.s.last().copied().unwrap_or(0.0)
+        match (self.s.first(), self.s.last()) {
+            (Some(first), Some(last)) => last - first,
+            _ => 0.0,
+        }
     }
 
     /// Fractional grid index of the sample nearest to a pose.
@@ -167,5 +171,24 @@ pub fn unwrap(angles: &mut [f64]) {
         let mut d = angles[i] - angles[i - 1];
         d -= TAU * ((d + PI) / TAU).floor();
         angles[i] = angles[i - 1] + d;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A window cut from the online history keeps the history's arc
+    /// lengths; its length is its own, not the history's up to its end.
+    #[test]
+    fn the_length_of_a_window_does_not_count_the_path_before_it() {
+        let road: Vec<Vector2<f64>> = (0..100).map(|i| Vector2::new(i as f64, 0.0)).collect();
+        let mut track = Track::build(&road).expect("a moving path");
+        let whole = track.length();
+        for s in &mut track.s {
+            *s += 1.0e4;
+        }
+        assert!((track.length() - whole).abs() < 1e-9 * whole);
+        assert!((whole - 99.0).abs() < 3.0, "{whole}");
     }
 }
