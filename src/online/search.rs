@@ -446,24 +446,6 @@ pub fn verify_all(
             }
         }
     }
-    found.sort_by(|a, b| b.hypothesis.score.total_cmp(&a.hypothesis.score));
-    if std::env::var("TURNPRINT_DEBUG").is_ok() {
-        eprintln!(
-            "poses {} shape {} seed {:?} found {:?}",
-            frame.poses,
-            shape.len(),
-            seed,
-            found
-                .iter()
-                .map(|f| (
-                    f.hypothesis.score,
-                    f.hypothesis.a_range,
-                    f.hypothesis.b_range,
-                    f.source
-                ))
-                .collect::<Vec<_>>()
-        );
-    }
     found.retain(|f| emitted(f, config, frame.step));
     crate::pipeline::rank::rank(found, config.top_k, f64::NEG_INFINITY)
 }
