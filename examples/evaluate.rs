@@ -38,6 +38,9 @@ struct Args {
     /// Print JSON instead of Markdown.
     #[arg(long)]
     json: bool,
+    /// Strength of the loops' drift, a factor of the strong model.
+    #[arg(long, default_value_t = 1.0)]
+    drift_factor: f64,
     /// What to evaluate.
     #[arg(long, value_enum, default_value = "all")]
     what: WhatArg,
@@ -52,6 +55,7 @@ fn main() -> ExitCode {
         negatives: args.cases.div_ceil(3),
         loop_seeds: args.loop_seeds,
         loop_min_score: args.loop_min_score,
+        drift_factor: args.drift_factor,
         what: match args.what {
             WhatArg::Merge => What::Merge,
             WhatArg::Loops => What::Loops,

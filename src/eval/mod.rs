@@ -121,6 +121,8 @@ pub struct Options {
     pub loop_min_score: f64,
     /// What to run.
     pub what: What,
+    /// Strength of the loops' drift, a factor of [`drift::DriftModel::strong`].
+    pub drift_factor: f64,
 }
 
 impl Default for Options {
@@ -133,6 +135,7 @@ impl Default for Options {
             loop_seeds: 4,
             loop_min_score: 0.0,
             what: What::All,
+            drift_factor: 1.0,
         }
     }
 }
@@ -200,7 +203,7 @@ pub fn run(opts: &Options) -> Result<Report> {
         report.set_merge(cases, negatives, unattainable, spec);
     }
     if do_loops {
-        let drift = drift::DriftModel::strong();
+        let drift = drift::DriftModel::strong().scaled(opts.drift_factor);
         let mut runs = Vec::new();
         for p in &prepared {
             for source in [Source::Gt, Source::Mono, Source::Drift] {

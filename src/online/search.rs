@@ -434,10 +434,11 @@ pub fn verify_all(
             };
             let xy = qw.path.points(false);
             let local = [range[0] - qw.grid0, range[1] - qw.grid0];
-            // The two windows are one map: `start` is in the history's frame.
-            if let Some(v) =
+            // The two windows are one map: the starts are in the history's frame.
+            let verified = seed.starts(seed_len).find_map(|start| {
                 verify::verify_seeded(&tw.path, &qw.path, &xy, local, start, false, pc, &allowed)
-            {
+            });
+            if let Some(v) = verified {
                 let source = match seed.drifted {
                     true => Source::DriftProbe,
                     false => Source::Proximity,

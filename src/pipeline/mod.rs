@@ -206,16 +206,18 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
         }
         LoopJob::Proximity(seed) => {
             let seed_len = track.s[seed.query[1]] - track.s[seed.query[0]];
-            verify::verify_seeded(
-                pa,
-                pa,
-                &xy,
-                seed.query,
-                seed.start,
-                false,
-                config,
-                &away(seed_len),
-            )
+            seed.starts(seed_len).find_map(|start| {
+                verify::verify_seeded(
+                    pa,
+                    pa,
+                    &xy,
+                    seed.query,
+                    start,
+                    false,
+                    config,
+                    &away(seed_len),
+                )
+            })
         }
     });
     let mut hypotheses = Vec::new();

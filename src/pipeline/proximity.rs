@@ -38,6 +38,23 @@ pub struct ProximitySeed {
     pub pairs: Vec<(Vector2<f64>, Vector2<f64>)>,
 }
 
+impl ProximitySeed {
+    /// The similarities to grow from, in turn until one grows: `start`,
+    /// then, for a consistent map's seed, the fit of the probe points onto
+    /// their nearest points. A map that drifts a little between the passes
+    /// puts the earlier pass within the consistent radius but a few metres
+    /// off the identity, farther than the first grow round's tolerance
+    /// (3 % of a probe window: about a metre on KITTI), and that growth
+    /// finds nothing; trying the identity first keeps consistent maps,
+    /// where it is exact, as they were.
+    pub fn starts(&self, length: f64) -> impl Iterator<Item = Similarity2> + '_ {
+        let fit = (!self.drifted)
+            .then(|| drifted_start(&self.pairs, length))
+            .flatten();
+        std::iter::once(self.start).chain(fit)
+    }
+}
+
 /// One probe point's nearest point of the other part.
 #[derive(Debug, Clone, Copy)]
 pub struct Near {
