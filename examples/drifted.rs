@@ -3,7 +3,8 @@
 //! log-scale random walk 0.001/√m) as a TUM file, one pose per frame at
 //! 10 Hz, to test the online detector and the verifier on a drifting map.
 //!
-//! Usage: `cargo run --release --example drifted -- GT.txt SEED OUT.tum`
+//! Usage: `cargo run --release --example drifted -- GT.txt SEED OUT.tum [FACTOR]`
+//! (`FACTOR` scales both random walks, default 1).
 
 use std::io::Write;
 use std::path::Path;
@@ -14,12 +15,14 @@ use turnprint::io::{read_trajectory, Format};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let [gt, seed, out] = args.as_slice() else {
-        return Err("usage: drifted GT.txt SEED OUT.tum".into());
+    let (gt, seed, out, factor) = match args.as_slice() {
+        [gt, seed, out] => (gt, seed, out, 1.0),
+        [gt, seed, out, factor] => (gt, seed, out, factor.parse()?),
+        _ => return Err("usage: drifted GT.txt SEED OUT.tum [FACTOR]".into()),
     };
     let truth = read_trajectory(Path::new(gt), Format::Kitti)?.positions();
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed.parse()?);
-    let drifted = DriftModel::strong().apply(&truth, &mut rng);
+    let drifted = DriftModel::strong().scaled(factor).apply(&truth, &mut rng);
     let mut file = std::io::BufWriter::new(std::fs::File::create(out)?);
     for (i, p) in drifted.iter().enumerate() {
         writeln!(
