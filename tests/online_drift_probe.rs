@@ -43,13 +43,21 @@ fn correct_of(
     (correct, out.len())
 }
 
+/// KITTI ground truth `name` from `tests/data`, and the same through the
+/// strong drift model times `factor` (random walks seeded with `seed`).
+fn truth_and_drifted(name: &str, factor: f64, seed: u64) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    let path = format!("tests/data/{name}.txt");
+    let truth = read_trajectory(Path::new(&path), Format::Kitti)
+        .expect(&path)
+        .positions();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let drifted = DriftModel::strong().scaled(factor).apply(&truth, &mut rng);
+    (truth, drifted)
+}
+
 #[test]
 fn drift_probe_finds_revisits_of_a_strongly_drifting_map() {
-    let truth = read_trajectory(Path::new("tests/data/08.txt"), Format::Kitti)
-        .expect("tests/data/08.txt")
-        .positions();
-    let mut rng = rand::rngs::StdRng::seed_from_u64(2);
-    let drifted = DriftModel::strong().apply(&truth, &mut rng);
+    let (truth, drifted) = truth_and_drifted("08", 1.0, 2);
     let (without, _) = correct_of(&drifted, &truth, false);
     let (with, emitted) = correct_of(&drifted, &truth, true);
     assert_eq!(without, 0);
@@ -93,11 +101,7 @@ fn drift_probe_is_on_by_default() {
 /// points.
 #[test]
 fn a_slightly_drifted_revisit_grows_from_the_probe_fit() {
-    let truth = read_trajectory(Path::new("tests/data/00.txt"), Format::Kitti)
-        .expect("tests/data/00.txt")
-        .positions();
-    let mut rng = rand::rngs::StdRng::seed_from_u64(2);
-    let drifted = DriftModel::strong().scaled(0.25).apply(&truth, &mut rng);
+    let (truth, drifted) = truth_and_drifted("00", 0.25, 2);
     let out = common::emitted_candidates(&drifted, OnlineConfig::default());
     let found = out.iter().any(|c| {
         let h = &c.hypothesis;

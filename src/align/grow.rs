@@ -93,7 +93,7 @@ pub fn grow_and_refit(
     }
     let stride = ((seed[1] - seed[0]) / config.points_per_seed).max(1);
     let arc_of = |v: f64| Track::interp(&target.s, v);
-    let last_vertex = (target.xy.len() - 1) as f64;
+    let last_vertex = target.xy.len().saturating_sub(1) as f64;
     let mut sim = a_T_b;
     let mut range = [seed[0], seed[1].min(n - 1)];
     let mut result = None;
@@ -298,9 +298,9 @@ mod tests {
     use super::*;
 
     /// A racetrack's leg and U-turn, then its other leg `width` away, as
-    /// samples `step` apart: straight up x = 0 from y = `y0` to 300, a
-    /// U-turn to x = -`width`, straight down to y = 0, then `bottom`
-    /// radians of the bottom U-turn and `up` more of road back up x = 0.
+    /// samples 1 apart: straight up x = 0 from y = `y0` to 300, a U-turn to
+    /// x = -`width`, straight down to y = 0, then `bottom` radians of the
+    /// bottom U-turn and `up` more of road back up x = 0.
     fn racetrack(y0: f64, width: f64, bottom: f64, up: f64) -> Vec<Vector2<f64>> {
         let step = 1.0;
         let r = width / 2.0;
