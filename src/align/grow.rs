@@ -23,6 +23,10 @@ pub struct GrowConfig {
     pub rounds: usize,
     /// Points used per seed (the query is strided to about this many).
     pub points_per_seed: usize,
+    /// The points a round re-projects inside the grown range are strided
+    /// to about this many (0: the seed's stride). A grown overlap holds a
+    /// few times the seed's points; a few dozen fix the refit as well.
+    pub points_per_round: usize,
     /// Misses in a row that end the growth.
     pub max_misses: usize,
     /// The rounds stop once a refit moves no matched point by more than
@@ -38,6 +42,7 @@ impl Default for GrowConfig {
             min_tolerance: 0.01,
             rounds: 8,
             points_per_seed: 120,
+            points_per_round: 0,
             max_misses: 3,
             settle: 0.0,
         }
@@ -140,10 +145,14 @@ pub fn grow_and_refit(
         };
         // Points of the current range that agree on one alignment line.
         let mut inside = Vec::new();
+        let inside_stride = match config.points_per_round {
+            0 => stride,
+            n => stride.max((range[1] - range[0]) / n),
+        };
         let mut g = range[0];
         while g <= range[1] {
             inside.extend(project(g, None));
-            g += stride;
+            g += inside_stride;
         }
         let Some((sign, mut matched)) = consistent_line(inside, query, sim.scale, 2.0 * tol) else {
             return result;
