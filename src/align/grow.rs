@@ -412,4 +412,63 @@ mod tests {
             overlap.query
         );
     }
+
+    /// Striding a round's inside points (`points_per_round`) must not cost
+    /// the fit: a copy of a winding road under a similarity, seeded slightly
+    /// off, grows over the whole road and recovers the similarity.
+    #[test]
+    fn a_capped_round_still_recovers_the_similarity() {
+        let road: Vec<Vector2<f64>> = (0..800)
+            .map(|i| {
+                let t = i as f64 * 0.5;
+                Vector2::new(t, 10.0 * (t / 15.0).sin() + 4.0 * (t / 7.0).cos())
+            })
+            .collect();
+        let target = Track::build(&road).expect("a moving path");
+        let a_T_b = Similarity2 {
+            scale: 2.0,
+            angle: 0.3,
+            translation: Vector2::new(5.0, -3.0),
+        };
+        let b_T_a = a_T_b.inverse();
+        let copy: Vec<Vector2<f64>> = road.iter().map(|p| b_T_a.apply(p)).collect();
+        let query = Track::build(&copy).expect("a moving path");
+        let polyline = Polyline2::new(&target.xy);
+        let n = query.xy.len();
+        let rough = Similarity2 {
+            scale: 2.002,
+            angle: 0.3005,
+            ..a_T_b
+        };
+        let config = GrowConfig {
+            points_per_round: 20,
+            ..GrowConfig::default()
+        };
+        let overlap = grow_and_refit(
+            &target,
+            &polyline,
+            &query,
+            &query.xy,
+            [n / 2 - 20, n / 2 + 20],
+            rough,
+            &config,
+            &|_, _| true,
+        )
+        .expect("the seed lies on the road");
+        assert!(
+            overlap.query[0] < n / 10 && overlap.query[1] > 9 * n / 10,
+            "{:?}",
+            overlap.query
+        );
+        assert!(
+            (overlap.a_T_b.scale / 2.0 - 1.0).abs() < 1e-3,
+            "{:?}",
+            overlap.a_T_b
+        );
+        assert!(
+            (overlap.a_T_b.angle - 0.3).abs() < 1e-3,
+            "{:?}",
+            overlap.a_T_b
+        );
+    }
 }
