@@ -417,6 +417,7 @@ mod tests {
     /// the fit: a copy of a winding road under a similarity, seeded slightly
     /// off, grows over the whole road and recovers the similarity.
     #[test]
+    #[allow(non_snake_case)]
     fn a_capped_round_still_recovers_the_similarity() {
         let road: Vec<Vector2<f64>> = (0..800)
             .map(|i| {
