@@ -306,6 +306,38 @@ fn consistent_line(
 mod tests {
     use super::*;
 
+    /// `query` grown on `target` from `seed` and `start`, every pair allowed.
+    fn grow(
+        target: &Track,
+        query: &Track,
+        seed: [usize; 2],
+        start: Similarity2,
+        config: &GrowConfig,
+    ) -> Option<Overlap> {
+        let polyline = Polyline2::new(&target.xy);
+        grow_and_refit(
+            target,
+            &polyline,
+            query,
+            &query.xy,
+            seed,
+            start,
+            config,
+            &|_, _| true,
+        )
+    }
+
+    /// [`grow`] from the identity with the default settings.
+    fn grow_from_identity(target: &Track, query: &Track, seed: [usize; 2]) -> Option<Overlap> {
+        grow(
+            target,
+            query,
+            seed,
+            Similarity2::identity(),
+            &GrowConfig::default(),
+        )
+    }
+
     /// A racetrack's leg and U-turn, then its other leg `width` away, as
     /// samples 1 apart: straight up x = 0 from y = `y0` to 300, a U-turn to
     /// x = -`width`, straight down to y = 0, then `bottom` radians of the
@@ -356,18 +388,9 @@ mod tests {
         let target = Track::build(&racetrack(150.0, 16.0, third, 0.0)).expect("moving");
         let query =
             Track::build(&racetrack(150.0, 16.0, std::f64::consts::PI, 100.0)).expect("moving");
-        let polyline = Polyline2::new(&target.xy);
-        let overlap = grow_and_refit(
-            &target,
-            &polyline,
-            &query,
-            &query.xy,
-            [0, target.xy.len() - 1],
-            Similarity2::identity(),
-            &GrowConfig::default(),
-            &|_, _| true,
-        )
-        .expect("the query lies on the target");
+        let seed = [0, target.xy.len() - 1];
+        let overlap =
+            grow_from_identity(&target, &query, seed).expect("the query lies on the target");
         assert!(
             (overlap.a_T_b.scale - 1.0).abs() < 1e-3 && overlap.rmse < 0.05,
             "scale {}, rmse {}",
@@ -392,20 +415,10 @@ mod tests {
         for s in &mut target.s {
             *s += 1.0e4;
         }
-        let polyline = Polyline2::new(&target.xy);
         let n = target.xy.len();
         let seed = [n / 2 - 10, n / 2 + 10];
-        let overlap = grow_and_refit(
-            &target,
-            &polyline,
-            &target,
-            &target.xy,
-            seed,
-            Similarity2::identity(),
-            &GrowConfig::default(),
-            &|_, _| true,
-        )
-        .expect("the seed lies on the road");
+        let overlap =
+            grow_from_identity(&target, &target, seed).expect("the seed lies on the road");
         assert!(
             overlap.query[0] < n / 4 && overlap.query[1] > 3 * n / 4,
             "grown {:?} of {n} samples from {seed:?}",
@@ -434,7 +447,6 @@ mod tests {
         let b_T_a = a_T_b.inverse();
         let copy: Vec<Vector2<f64>> = road.iter().map(|p| b_T_a.apply(p)).collect();
         let query = Track::build(&copy).expect("a moving path");
-        let polyline = Polyline2::new(&target.xy);
         let n = query.xy.len();
         let rough = Similarity2 {
             scale: 2.002,
@@ -445,17 +457,8 @@ mod tests {
             points_per_round: 20,
             ..GrowConfig::default()
         };
-        let overlap = grow_and_refit(
-            &target,
-            &polyline,
-            &query,
-            &query.xy,
-            [n / 2 - 20, n / 2 + 20],
-            rough,
-            &config,
-            &|_, _| true,
-        )
-        .expect("the seed lies on the road");
+        let overlap = grow(&target, &query, [n / 2 - 20, n / 2 + 20], rough, &config)
+            .expect("the seed lies on the road");
         assert!(
             overlap.query[0] < n / 10 && overlap.query[1] > 9 * n / 10,
             "{:?}",

@@ -48,10 +48,13 @@ impl ProximitySeed {
     /// finds nothing; trying the identity first keeps consistent maps,
     /// where it is exact, as they were.
     pub fn starts(&self, length: f64) -> impl Iterator<Item = Similarity2> + '_ {
-        let fit = (!self.drifted)
-            .then(|| drifted_start(&self.pairs, length))
-            .flatten();
-        std::iter::once(self.start).chain(fit)
+        // The fit only when the identity found nothing (most seeds grow).
+        let fit = std::iter::once_with(move || {
+            (!self.drifted)
+                .then(|| drifted_start(&self.pairs, length))
+                .flatten()
+        });
+        std::iter::once(self.start).chain(fit.flatten())
     }
 }
 
