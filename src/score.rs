@@ -39,7 +39,7 @@ impl Default for ScoreConfig {
 pub struct Evidence {
     /// ZNCC of the seed match.
     pub zncc: f64,
-    /// Turning inside the overlap (radians).
+    /// Turning inside the overlap (radians), the smaller of the two sides.
     pub turning: f64,
     /// RMS residual over matched length.
     pub relative_rmse: f64,

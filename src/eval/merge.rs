@@ -169,6 +169,30 @@ pub fn positive_case(
         let a = random_window(rng, arc, spec.a_len.0, spec.a_len.1)?;
         (a, overlapping_window(rng, arc, a, spec)?)
     };
+    let kind = if revisit { "revisit" } else { "time" };
+    window_case(
+        rng,
+        p,
+        source,
+        reversed,
+        [a_win, b_win],
+        kind,
+        0.75 * spec.overlap.0,
+    )
+}
+
+/// Runs one positive case on given windows (frame ranges of A and B), B
+/// under a random similarity and reversed or not (`None`: B is too short
+/// or shares less than `min_overlap` metres of road with A).
+pub fn window_case(
+    rng: &mut impl Rng,
+    p: &Prepared,
+    source: Source,
+    reversed: bool,
+    [a_win, b_win]: [Window; 2],
+    kind: &'static str,
+    min_overlap: f64,
+) -> Option<MergeCase> {
     let a_cut = cut(p, Source::Gt, a_win);
     let b_cut = cut(p, source, b_win);
     if b_cut.input.len() < MIN_POSES {
@@ -176,7 +200,7 @@ pub fn positive_case(
     }
     let (b, reversed, scale) = disguise(rng, b_cut, reversed);
     let truth = overlap(&a_cut.truth, &b.truth, SAME_ROAD_M);
-    if truth.length < 0.75 * spec.overlap.0 || truth.b.len() < 3 {
+    if truth.length < min_overlap || truth.b.len() < 3 {
         return None;
     }
     let a_traj = Trajectory::from_positions(format!("{}-gt", p.seq.name), &a_cut.input);
@@ -211,7 +235,7 @@ pub fn positive_case(
     Some(MergeCase {
         sequence: p.seq.name.clone(),
         source,
-        kind: if revisit { "revisit" } else { "time" },
+        kind,
         reversed,
         a_frames: a_win,
         b_frames: b_win,

@@ -191,7 +191,11 @@ fn finish(
     let target_fraction = overlap.target_length / target.track.length().max(f64::MIN_POSITIVE);
     let evidence = Evidence {
         zncc,
-        turning: query.turning_between(overlap.query[0] as f64, overlap.query[1] as f64),
+        // Turns that agree are on both sides: noise adds turning to one
+        // (monocular wiggle), so the smaller of the two counts.
+        turning: query
+            .turning_between(overlap.query[0] as f64, overlap.query[1] as f64)
+            .min(target.turning_between(overlap.target[0], overlap.target[1])),
         relative_rmse: overlap.rmse / length.max(f64::MIN_POSITIVE),
         length_ratio: overlap.target_length / overlap.query_length,
         coverage: query_fraction.max(target_fraction).clamp(0.0, 1.0),
