@@ -70,7 +70,11 @@ pub fn verify(
         &config.grow,
         allowed,
     )?;
-    Some(finish(target, query, overlap, cand.clone(), cand.zncc))
+    // The seed's ZNCC compares signatures each at its own resolution; the
+    // grown overlap knows the scale, and so a common one.
+    let negate = overlap.reversed != cand.orientation.mirrored;
+    let zncc = cand.zncc.max(overlap_zncc(target, query, &overlap, negate));
+    Some(finish(target, query, overlap, cand.clone(), zncc))
 }
 
 /// The RANSAC similarity (query -> target) of a candidate's seed samples,
@@ -209,7 +213,11 @@ fn finish(
 
 /// ZNCC of the two paths' curvature over the grown overlap, sampled at
 /// [`OVERLAP_SAMPLES`] uniform steps of the query's matched arc length
-/// (`negate` when one path travels or is seen the other way).
+/// (`negate` when one path travels or is seen the other way), at a common
+/// resolution: the path smoothed less (in the target's units, through the
+/// overlap's scale) is smoothed further to the other's bandwidth. A 1 Hz
+/// GPS is smoothed over metres where 10 Hz odometry keeps sharp corners;
+/// compared raw, their curvature disagrees where the road agrees.
 pub fn overlap_zncc(
     target: &PreparedPath,
     query: &PreparedPath,
@@ -221,15 +229,48 @@ pub fn overlap_zncc(
         return 0.0;
     }
     let sign = if negate { -1.0 } else { 1.0 };
+    let scale = overlap.a_T_b.scale;
+    let (bw_t, bw_q) = (target.track.bandwidth, scale * query.track.bandwidth);
+    let bw = bw_t.max(bw_q);
+    let (sigma_t, sigma_q) = (
+        (bw * bw - bw_t * bw_t).max(0.0).sqrt(),
+        (bw * bw - bw_q * bw_q).max(0.0).sqrt() / scale,
+    );
     let mut qv = Vec::with_capacity(OVERLAP_SAMPLES);
     let mut tv = Vec::with_capacity(OVERLAP_SAMPLES);
     for i in 0..OVERLAP_SAMPLES {
         let k = (i * (p.len() - 1)) / (OVERLAP_SAMPLES - 1);
         let (t, q) = p[k];
-        qv.push(sign * query.track.curvature[q]);
-        tv.push(Track::interp(&target.track.curvature, t));
+        qv.push(sign * curvature_at(&query.track, q as f64, sigma_q));
+        tv.push(curvature_at(&target.track, t, sigma_t));
     }
     crate::matching::zncc::zncc_pair(&qv, &tv)
+}
+
+/// Curvature of `track` at grid position `g`, further smoothed by a
+/// Gaussian of `sigma` (the track's length units; none below half a grid
+/// step). Smoothing the path again by `sigma` smooths its heading, and so
+/// its curvature, by about the same kernel.
+fn curvature_at(track: &Track, g: f64, sigma: f64) -> f64 {
+    let n = track.curvature.len();
+    if !(sigma > 0.5 * track.step) || n == 0 {
+        return Track::interp(&track.curvature, g);
+    }
+    let half = (3.0 * sigma / track.step).ceil() as i64;
+    let centre = g.round() as i64;
+    let (lo, hi) = ((centre - half).max(0), (centre + half).min(n as i64 - 1));
+    let (mut sum, mut weights) = (0.0, 0.0);
+    for i in lo..=hi {
+        let d = (i as f64 - g) * track.step / sigma;
+        let w = (-0.5 * d * d).exp();
+        sum += w * track.curvature[i as usize];
+        weights += w;
+    }
+    if weights > 0.0 {
+        sum / weights
+    } else {
+        Track::interp(&track.curvature, g)
+    }
 }
 
 /// Samples used by [`overlap_zncc`].
