@@ -253,7 +253,7 @@ pub fn overlap_zncc(
 /// its curvature, by about the same kernel.
 fn curvature_at(track: &Track, g: f64, sigma: f64) -> f64 {
     let n = track.curvature.len();
-    if !(sigma > 0.5 * track.step) || n == 0 {
+    if sigma.is_nan() || sigma <= 0.5 * track.step || n == 0 {
         return Track::interp(&track.curvature, g);
     }
     let half = (3.0 * sigma / track.step).ceil() as i64;
