@@ -241,7 +241,7 @@ fn match_files(
     progress.stage("preparing (plane, track, signature, segments)");
     let (pa, pb) = (prepare(&ta, config)?, prepare(&tb, config)?);
     progress.stage("matching");
-    let hypotheses = pipeline::match_prepared(&pa, &pb, config);
+    let hypotheses = pipeline::match_across_rates(&ta, &tb, &pa, &pb, config);
     Ok((ta, tb, hypotheses))
 }
 

@@ -12,6 +12,7 @@ pub mod merge;
 pub mod prepare;
 pub mod proximity;
 pub mod rank;
+pub mod resolution;
 pub mod verify;
 
 pub use config::Config;
@@ -31,7 +32,46 @@ pub fn match_paths(a: &Trajectory, b: &Trajectory, config: &Config) -> Result<Ve
     // Each path through plane, track, signature and segments.
     let pa = PreparedPath::new(a, config)?;
     let pb = PreparedPath::new(b, config)?;
-    Ok(match_prepared(&pa, &pb, config))
+    Ok(match_across_rates(a, b, &pa, &pb, config))
+}
+
+/// [`match_prepared`], and when one path is sampled several times more
+/// densely than the other, the same again with the denser one thinned to
+/// the other's rate ([`resolution`]); the hypotheses of both ranked
+/// together, in the original pose indices.
+pub fn match_across_rates(
+    a: &Trajectory,
+    b: &Trajectory,
+    pa: &PreparedPath,
+    pb: &PreparedPath,
+    config: &Config,
+) -> Vec<Hypothesis> {
+    let mut all = match_prepared(pa, pb, config);
+    let ratio = resolution::density_ratio(pa, pb);
+    let Some(k) = resolution::thinning(ratio) else {
+        return all;
+    };
+    let a_denser = ratio >= 1.0;
+    let dense = if a_denser { a } else { b };
+    let Ok(thin) = PreparedPath::new(&resolution::thinned(dense, k), config) else {
+        return all;
+    };
+    let coarse = match a_denser {
+        true => match_prepared(&thin, pb, config),
+        false => match_prepared(pa, &thin, config),
+    };
+    let at = |i: usize| resolution::unthinned(i, k, dense.len());
+    for mut h in coarse {
+        if a_denser {
+            h.a_range = h.a_range.map(at);
+            h.correspondences.iter_mut().for_each(|c| c.0 = at(c.0));
+        } else {
+            h.b_range = h.b_range.map(at);
+            h.correspondences.iter_mut().for_each(|c| c.1 = at(c.1));
+        }
+        all.push(h);
+    }
+    rank::rank(all, config.top_k, config.min_score)
 }
 
 /// [`match_paths`] on prepared paths.
