@@ -1,6 +1,7 @@
 //! Batch speed on this machine: `loops` on KITTI 00 (4541 poses) end to end,
-//! `match` of two 5000-pose paths, and, side by side, the FFT ZNCC against
-//! the direct one on the same signature.
+//! `match` of two 5000-pose paths, `match` of KITTI 00 against its 1 Hz GPS
+//! (two sampling rates: matched twice), and, side by side, the FFT ZNCC
+//! against the direct one on the same signature.
 
 use std::hint::black_box;
 
@@ -54,6 +55,15 @@ fn bench_match(c: &mut Criterion) {
     });
 }
 
+fn bench_match_gps(c: &mut Criterion) {
+    let a = kitti("00.txt");
+    let b = kitti("KittiGps_converted.txt");
+    let config = Config::for_matching();
+    c.bench_function("match KITTI 00 x its 1 Hz GPS (4541 x 470 poses)", |bch| {
+        bch.iter(|| match_paths(black_box(&a), black_box(&b), &config).unwrap())
+    });
+}
+
 fn bench_zncc(c: &mut Criterion) {
     let a = kitti("00.txt");
     let p = PreparedPath::new(&a, &Config::default()).unwrap();
@@ -68,5 +78,5 @@ fn bench_zncc(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_loops, bench_match, bench_zncc);
+criterion_group!(benches, bench_loops, bench_match, bench_match_gps, bench_zncc);
 criterion_main!(benches);
