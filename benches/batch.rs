@@ -78,5 +78,11 @@ fn bench_zncc(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_loops, bench_match, bench_match_gps, bench_zncc);
+criterion_group!(
+    benches,
+    bench_loops,
+    bench_match,
+    bench_match_gps,
+    bench_zncc
+);
 criterion_main!(benches);
