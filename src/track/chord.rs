@@ -49,8 +49,9 @@ pub struct ChordStream {
     /// Smallest move that counts (path units; chosen from data, see
     /// [`ChordParam::min_step_of`]).
     pub min_step: f64,
-    /// The last kept points, newest last ([`BACK_STEPS`] + 1 of them).
-    kept: Vec<Vector2<f64>>,
+    /// The last kept points, newest last: the first `count` of them.
+    kept: [Vector2<f64>; BACK_STEPS + 1],
+    count: usize,
     u: f64,
 }
 
@@ -59,15 +60,17 @@ impl ChordStream {
     pub fn new(min_step: f64) -> Self {
         ChordStream {
             min_step,
-            kept: Vec::with_capacity(BACK_STEPS + 1),
+            kept: [Vector2::zeros(); BACK_STEPS + 1],
+            count: 0,
             u: 0.0,
         }
     }
 
     /// Feeds one point: its chord parameter and whether it was kept.
     pub fn push(&mut self, p: Vector2<f64>) -> (f64, bool) {
-        let Some(&last) = self.kept.last() else {
-            self.kept.push(p);
+        let Some(last) = self.last() else {
+            self.kept[0] = p;
+            self.count = 1;
             return (0.0, true);
         };
         let step = p - last;
@@ -75,16 +78,18 @@ impl ChordStream {
         if d < self.min_step {
             return (self.u, false);
         }
-        if self.kept.len() > BACK_STEPS {
+        if self.count > BACK_STEPS {
             let chord = last - self.kept[0];
             let back = step.dot(&chord) < 0.0 && step.dot(&(last - self.kept[1])) < 0.0;
             if back && d < chord.norm() {
                 return (self.u, false);
             }
-            self.kept.remove(0);
+            self.kept.rotate_left(1);
+            self.count -= 1;
         }
         self.u += d;
-        self.kept.push(p);
+        self.kept[self.count] = p;
+        self.count += 1;
         (self.u, true)
     }
 
@@ -95,7 +100,7 @@ impl ChordStream {
 
     /// The last kept point.
     pub fn last(&self) -> Option<Vector2<f64>> {
-        self.kept.last().copied()
+        self.count.checked_sub(1).map(|i| self.kept[i])
     }
 }
 
