@@ -19,7 +19,7 @@ const MAX_THINNING: usize = 20;
 const CORNER_QUANTILE: f64 = 0.95;
 
 /// The heading change between consecutive moving poses on the smoothed
-/// track, at the corners ([`CORNER_QUANTILE`] of them), in radians.
+/// track at the corners (its 95th percentile), in radians.
 pub fn corner_turn_per_pose(p: &PreparedPath) -> f64 {
     let track = &p.track;
     let mut turns = Vec::with_capacity(p.poses);

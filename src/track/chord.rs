@@ -28,22 +28,23 @@ const STATIONARY_FRACTION: f64 = 0.25;
 /// A pose that steps back against the direction of travel (more than 90°
 /// from both the last kept step and the chord of the last two) by less
 /// than that chord is jitter, not a reversal: it is left out like a
-/// stationary pose. Real monocular VO
-/// does this: ORB-SLAM2 on KITTI 06 steps back by an eighth of a step every
-/// other frame over whole stretches, and 13-16 % of the poses of 05 and 06
-/// step back. Kept, each such pose is a cusp, 180° of spurious turning that
-/// no smoothing removes where the back step exceeds the stationary
-/// threshold (a 9-pose stretch of 06 showed 696°, and matched a U-turn:
-/// regression `track::chord::tests::a_sawtooth_of_back_steps_goes_forward`).
+/// stationary pose. Real monocular VO does this: ORB-SLAM2 on KITTI 06
+/// steps back by an eighth of a step every other frame over whole
+/// stretches, and 13-16 % of the poses of 05 and 06 step back. Kept, each
+/// such pose is a cusp, 180° of spurious turning that no smoothing removes
+/// where the back step exceeds the stationary threshold (a 9-pose stretch
+/// of 06 showed 696° and matched a U-turn: regressions
+/// `tests::a_sawtooth_of_back_steps_goes_forward` and
+/// `tests/merge_real.rs::back_steps_of_mono_06_do_not_make_turns`).
 /// A true reversal moves back further than the two steps before it and is
 /// kept from there on; a sharp turn of a sparse path (a 1 Hz GPS at an
 /// intersection) turns less than 90° from its last step.
 const BACK_STEPS: usize = 2;
 
 /// The chord parameter one point at a time: a point is kept when it moved
-/// at least `min_step` from the last kept point; every point (kept or not)
-/// gets the parameter of the last kept point. [`ChordParam::new`] runs the
-/// same loop over a whole path.
+/// at least `min_step` from the last kept point and is no back step (see
+/// `BACK_STEPS`); every point (kept or not) gets the parameter of the last
+/// kept point. [`ChordParam::new`] runs the same loop over a whole path.
 #[derive(Debug, Clone)]
 pub struct ChordStream {
     /// Smallest move that counts (path units; chosen from data, see
