@@ -41,6 +41,10 @@ struct Args {
     /// Strength of the loops' drift, a factor of the strong model.
     #[arg(long, default_value_t = 1.0)]
     drift_factor: f64,
+    /// The drift's log-scale random walk per sqrt(m), in place of the
+    /// strong model's (real monocular ORB-SLAM2: 0.003-0.008).
+    #[arg(long)]
+    drift_log_scale: Option<f64>,
     /// What to evaluate.
     #[arg(long, value_enum, default_value = "all")]
     what: WhatArg,
@@ -56,6 +60,7 @@ fn main() -> ExitCode {
         loop_seeds: args.loop_seeds,
         loop_min_score: args.loop_min_score,
         drift_factor: args.drift_factor,
+        drift_log_scale: args.drift_log_scale,
         what: match args.what {
             WhatArg::Merge => What::Merge,
             WhatArg::Loops => What::Loops,

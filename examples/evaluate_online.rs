@@ -16,7 +16,8 @@
 //! the ground truth with added drift (heading random walk and scale drift),
 //! `strong` the ground truth through the evaluation's strong drift model
 //! (`eval::drift::DriftModel::strong`, seed `SEED`, default 1; `DRIFT_FACTOR=f`
-//! makes both random walks f times as strong).
+//! makes both random walks f times as strong; `DRIFT_LOG_SCALE=x` then sets
+//! the log-scale walk to x per sqrt(m)).
 //! `MIN_SCORE=x` sets `OnlineConfig::min_score`, `DRIFT_MIN_SCORE=x`
 //! `OnlineConfig::drift_min_score`; `DRIFT_PROBE=0` turns off
 //! `OnlineConfig::drift_probe` (on by default).
@@ -51,7 +52,10 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1.0);
-    println!("mode {mode} (seed {seed}, factor {drift_factor} for strong drift)");
+    let log_scale: Option<f64> = std::env::var("DRIFT_LOG_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok());
+    println!("mode {mode} (seed {seed}, factor {drift_factor} for strong drift, log-scale walk {log_scale:?})");
     let show_events = std::env::var("SCORES").is_ok();
     println!("seq  poses events detected  rate  delay_med_m delay_p90_m  cands correct share  push_p50_us push_p99_us  wall_s");
     let (mut ev_all, mut det_all, mut c_all, mut ok_all) = (0, 0, 0, 0);
@@ -70,12 +74,11 @@ fn main() {
             "strong" => {
                 use rand::SeedableRng;
                 let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-                (
-                    turnprint::eval::drift::DriftModel::strong()
-                        .scaled(drift_factor)
-                        .apply(&gt_xyz, &mut rng),
-                    (0..gt_xyz.len()).collect(),
-                )
+                let mut model = turnprint::eval::drift::DriftModel::strong().scaled(drift_factor);
+                if let Some(walk) = log_scale {
+                    model = model.with_log_scale(walk);
+                }
+                (model.apply(&gt_xyz, &mut rng), (0..gt_xyz.len()).collect())
             }
             _ => (gt_xyz.clone(), (0..gt_xyz.len()).collect()),
         };

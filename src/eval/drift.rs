@@ -39,6 +39,16 @@ impl DriftModel {
         }
     }
 
+    /// This model with its log-scale random walk set to `per_sqrt_len`
+    /// (real monocular ORB-SLAM2 on KITTI: 0.003-0.008; see
+    /// `examples/mono_drift.rs`).
+    pub fn with_log_scale(self, per_sqrt_len: f64) -> Self {
+        DriftModel {
+            log_scale_per_sqrt_len: per_sqrt_len,
+            ..self
+        }
+    }
+
     /// This model with both random walks `factor` times as strong (the
     /// drift sweep of EVALUATION.md: real monocular ORB-SLAM2 drifts about
     /// a tenth to a fifth of [`DriftModel::strong`] in heading).

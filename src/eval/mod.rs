@@ -123,6 +123,9 @@ pub struct Options {
     pub what: What,
     /// Strength of the loops' drift, a factor of [`drift::DriftModel::strong`].
     pub drift_factor: f64,
+    /// The drift's log-scale random walk per sqrt(m), in place of the
+    /// scaled strong model's (`None`: keep it).
+    pub drift_log_scale: Option<f64>,
 }
 
 impl Default for Options {
@@ -136,6 +139,7 @@ impl Default for Options {
             loop_min_score: 0.0,
             what: What::All,
             drift_factor: 1.0,
+            drift_log_scale: None,
         }
     }
 }
@@ -203,7 +207,10 @@ pub fn run(opts: &Options) -> Result<Report> {
         report.set_merge(cases, negatives, unattainable, spec);
     }
     if do_loops {
-        let drift = drift::DriftModel::strong().scaled(opts.drift_factor);
+        let mut drift = drift::DriftModel::strong().scaled(opts.drift_factor);
+        if let Some(walk) = opts.drift_log_scale {
+            drift = drift.with_log_scale(walk);
+        }
         let mut runs = Vec::new();
         for p in &prepared {
             for source in [Source::Gt, Source::Mono, Source::Drift] {
