@@ -17,7 +17,7 @@ use std::sync::{Arc, OnceLock};
 use glam::DVec2;
 use nalgebra::Vector2;
 use parry2d_f64::bounding_volume::Aabb;
-use parry2d_f64::partitioning::{Bvh, BvhBuildStrategy};
+use parry2d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhNode};
 
 /// Consecutive segments per BVH leaf.
 const CHUNK: usize = 8;
@@ -136,69 +136,6 @@ impl Polyline2 {
         (leaf * CHUNK).min(n)..((leaf + 1) * CHUNK).min(n)
     }
 
-    /// Runs of segments that may hold a point within `max_dist` of `q`,
-    /// with a lower bound of their squared distance, nearest first.
-    fn near_runs(&self, q: DVec2, max_dist: f64, out: &mut Vec<(f64, Range<usize>)>) {
-        let r = DVec2::splat(max_dist.min(f64::MAX));
-        let aabb = Aabb::new(q - r, q + r);
-        let max2 = max_dist * max_dist;
-        out.clear();
-        match &self.index {
-            Index::Own { bvh, leaves } => {
-                let leaves = leaves.get_or_init(|| {
-                    let n = self.vertices.len().saturating_sub(1);
-                    (0..n.div_ceil(CHUNK))
-                        .map(|leaf| {
-                            let s = self.own_leaf(leaf);
-                            run_box(self.vertices[s.start..=s.end].iter().copied())
-                        })
-                        .collect()
-                });
-                let run = |leaf: u32| {
-                    let d2 = box_dist2(&leaves[leaf as usize], q);
-                    (d2, self.own_leaf(leaf as usize))
-                };
-                if leaves.len() <= FLAT_LEAVES {
-                    out.extend((0..leaves.len() as u32).map(run).filter(|r| r.0 <= max2));
-                } else {
-                    out.extend(
-                        bvh.get_or_init(|| Bvh::from_leaves(BvhBuildStrategy::Binned, leaves))
-                            .intersect_aabb(&aabb)
-                            .map(run),
-                    );
-                }
-            }
-            Index::Shared { index, first } => {
-                // Global segments [first, last) are the window's.
-                let (first, last) = (*first, first + self.vertices.len().saturating_sub(1));
-                let local = |g: Range<usize>| {
-                    g.start.max(first) - first..g.end.min(last).saturating_sub(first)
-                };
-                out.extend(
-                    index
-                        .bvh
-                        .intersect_aabb(&aabb)
-                        .map(|leaf| {
-                            let leaf = leaf as usize;
-                            // The leaf's own box, kept by the tree.
-                            let d2 = index
-                                .bvh
-                                .leaf_node(leaf as u32)
-                                .map_or(0.0, |n| box_dist2(&n.aabb(), q));
-                            (d2, local(leaf * PATH_CHUNK..(leaf + 1) * PATH_CHUNK))
-                        })
-                        .filter(|r| !r.1.is_empty()),
-                );
-                // The newest segments, not in a complete run yet.
-                let tail = local(index.indexed_segments().max(first)..last);
-                if !tail.is_empty() {
-                    out.push((0.0, tail));
-                }
-            }
-        }
-        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-    }
-
     /// Nearest point to `p` (the whole polyline searched).
     pub fn project(&self, p: &Vector2<f64>) -> Option<Projection> {
         self.project_within(p, f64::INFINITY, |_| true)
@@ -216,23 +153,91 @@ impl Polyline2 {
         if self.vertices.len() < 2 {
             return None;
         }
-        thread_local! {
-            /// The runs buffer, reused: this runs for every projected point.
-            static NEAR: std::cell::Cell<Vec<(f64, Range<usize>)>> =
-                const { std::cell::Cell::new(Vec::new()) };
-        }
-        let mut near = NEAR.take();
-        self.near_runs(DVec2::new(p.x, p.y), max_dist, &mut near);
+        let q = DVec2::new(p.x, p.y);
+        let max2 = max_dist * max_dist;
+        // A leaf's best point when nearer than `best_cost` (squared).
+        let in_run = |run: Range<usize>, best_cost: f64| {
+            let sentinel = (best_cost < max2).then_some((best_cost, usize::MAX, 0.0));
+            self.nearest_in(p, max_dist, run, &allowed, sentinel)
+                .filter(|b| b.1 != usize::MAX)
+                .map(|(d2, i, t)| (d2, (i, t)))
+        };
+        let box_cost = |node: &BvhNode, _: f64| box_dist2(&node.aabb(), q);
+        let best = match &self.index {
+            Index::Own { bvh, leaves } => {
+                let leaves = self.own_leaves(leaves);
+                if leaves.len() <= FLAT_LEAVES {
+                    return self.project_flat(p, max_dist, leaves, &allowed);
+                }
+                // Best-first down the tree, nearest child first, pruning
+                // every box farther than the best point so far: a wide
+                // tolerance (the first grow round of a long overlap) meets
+                // hundreds of runs, of which a few are ever searched.
+                bvh.get_or_init(|| Bvh::from_leaves(BvhBuildStrategy::Binned, leaves))
+                    .find_best(max2, box_cost, |leaf, cost| {
+                        in_run(self.own_leaf(leaf as usize), cost)
+                    })
+                    .map(|(_, b)| b)
+            }
+            Index::Shared { index, first } => {
+                // Global segments [first, last) are the window's; the
+                // newest ones are in no complete run yet.
+                let (first, last) = (*first, first + self.vertices.len() - 1);
+                let local = |g: Range<usize>| {
+                    g.start.max(first) - first..g.end.min(last).saturating_sub(first)
+                };
+                let tail = in_run(local(index.indexed_segments().max(first)..last), max2);
+                let cost = tail.map_or(max2, |t| t.0);
+                let tree = index
+                    .bvh
+                    .find_best(cost, box_cost, |leaf, cost| {
+                        let run =
+                            local(leaf as usize * PATH_CHUNK..(leaf as usize + 1) * PATH_CHUNK);
+                        (!run.is_empty()).then(|| in_run(run, cost)).flatten()
+                    })
+                    .map(|(_, b)| b);
+                tree.or(tail)
+            }
+        };
+        best.map(|(d2, (i, t))| projection((d2, i, t)))
+    }
+
+    /// The boxes of a whole path's own runs, computed on the first query.
+    fn own_leaves<'a>(&self, leaves: &'a OnceLock<Vec<Aabb>>) -> &'a Vec<Aabb> {
+        leaves.get_or_init(|| {
+            let n = self.vertices.len().saturating_sub(1);
+            (0..n.div_ceil(CHUNK))
+                .map(|leaf| {
+                    let s = self.own_leaf(leaf);
+                    run_box(self.vertices[s.start..=s.end].iter().copied())
+                })
+                .collect()
+        })
+    }
+
+    /// [`Polyline2::project_within`] by a scan of a few leaf boxes, nearest
+    /// first, stopping at the first box farther than the best point found.
+    fn project_flat(
+        &self,
+        p: &Vector2<f64>,
+        max_dist: f64,
+        leaves: &[Aabb],
+        allowed: &impl Fn(f64) -> bool,
+    ) -> Option<Projection> {
+        let q = DVec2::new(p.x, p.y);
+        let max2 = max_dist * max_dist;
+        let mut near: Vec<(f64, usize)> = (0..leaves.len())
+            .map(|leaf| (box_dist2(&leaves[leaf], q), leaf))
+            .filter(|r| r.0 <= max2)
+            .collect();
+        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         let mut best = None;
-        // Runs nearest first: the scan stops at the first run whose box is
-        // farther than the best point found.
-        for (box2, run) in near.drain(..) {
+        for (box2, leaf) in near {
             if best.is_some_and(|b: (f64, usize, f64)| b.0 < box2) {
                 break;
             }
-            best = self.nearest_in(p, max_dist, run, &allowed, best);
+            best = self.nearest_in(p, max_dist, self.own_leaf(leaf), allowed, best);
         }
-        NEAR.set(near);
         best.map(projection)
     }
 

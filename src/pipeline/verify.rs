@@ -232,10 +232,19 @@ pub fn overlap_zncc(
     let scale = overlap.a_T_b.scale;
     let (bw_t, bw_q) = (target.track.bandwidth, scale * query.track.bandwidth);
     let bw = bw_t.max(bw_q);
-    let (sigma_t, sigma_q) = (
-        (bw * bw - bw_t * bw_t).max(0.0).sqrt(),
-        (bw * bw - bw_q * bw_q).max(0.0).sqrt() / scale,
-    );
+    // Paths smoothed alike are compared as they are: two windows of one map
+    // share one bandwidth (a scale away from 1 between them is drift or a
+    // wrong candidate, not a resolution), and bandwidths a little apart
+    // change little.
+    let one_map = target.track.bandwidth == query.track.bandwidth;
+    let (sigma_t, sigma_q) = if !one_map && bw > RESOLUTION_RATIO * bw_t.min(bw_q) {
+        (
+            (bw * bw - bw_t * bw_t).max(0.0).sqrt(),
+            (bw * bw - bw_q * bw_q).max(0.0).sqrt() / scale,
+        )
+    } else {
+        (0.0, 0.0)
+    };
     let mut qv = Vec::with_capacity(OVERLAP_SAMPLES);
     let mut tv = Vec::with_capacity(OVERLAP_SAMPLES);
     for i in 0..OVERLAP_SAMPLES {
@@ -272,6 +281,10 @@ fn curvature_at(track: &Track, g: f64, sigma: f64) -> f64 {
         Track::interp(&track.curvature, g)
     }
 }
+
+/// [`overlap_zncc`] smooths one path further when the two bandwidths
+/// differ by more than this factor.
+const RESOLUTION_RATIO: f64 = 1.5;
 
 /// Samples used by [`overlap_zncc`].
 pub const OVERLAP_SAMPLES: usize = 64;
