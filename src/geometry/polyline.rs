@@ -155,7 +155,8 @@ impl Polyline2 {
         }
         let q = DVec2::new(p.x, p.y);
         let max2 = max_dist * max_dist;
-        // A leaf's best point when nearer than `best_cost` (squared).
+        // A leaf's best point when nearer than `best_cost` (squared); the
+        // cost passed in as a sentinel point prunes the scan of the run.
         let in_run = |run: Range<usize>, best_cost: f64| {
             let sentinel = (best_cost < max2).then_some((best_cost, usize::MAX, 0.0));
             self.nearest_in(p, max_dist, run, &allowed, sentinel)
@@ -215,8 +216,10 @@ impl Polyline2 {
         })
     }
 
-    /// [`Polyline2::project_within`] by a scan of a few leaf boxes, nearest
-    /// first, stopping at the first box farther than the best point found.
+    /// [`Polyline2::project_within`] by a scan of a few leaf boxes: the
+    /// nearest box first, for a first best point, then every box nearer
+    /// than the best point so far (no buffer, no sort: this runs for every
+    /// projected point).
     fn project_flat(
         &self,
         p: &Vector2<f64>,
@@ -226,15 +229,13 @@ impl Polyline2 {
     ) -> Option<Projection> {
         let q = DVec2::new(p.x, p.y);
         let max2 = max_dist * max_dist;
-        let mut near: Vec<(f64, usize)> = (0..leaves.len())
-            .map(|leaf| (box_dist2(&leaves[leaf], q), leaf))
-            .filter(|r| r.0 <= max2)
-            .collect();
-        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let box2 = |leaf: usize| box_dist2(&leaves[leaf], q);
+        let first = (0..leaves.len()).min_by(|&i, &j| box2(i).total_cmp(&box2(j)))?;
         let mut best = None;
-        for (box2, leaf) in near {
-            if best.is_some_and(|b: (f64, usize, f64)| b.0 < box2) {
-                break;
+        for leaf in std::iter::once(first).chain((0..leaves.len()).filter(|&l| l != first)) {
+            let d2 = box2(leaf);
+            if d2 > max2 || best.is_some_and(|b: (f64, usize, f64)| b.0 < d2) {
+                continue;
             }
             best = self.nearest_in(p, max_dist, self.own_leaf(leaf), allowed, best);
         }
