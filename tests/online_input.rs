@@ -248,3 +248,32 @@ fn candidates_carry_a_keyframe_pair_for_the_verifier() {
         }
     }
 }
+
+/// CARMEN Intel lab: the robot stands still for 290 poses, drives 15, then
+/// turns on the spot for 300, its wheel odometry creeping by a millimetre
+/// per pose against 29 mm when it drives. The warm-up ended inside the
+/// turn and took that creep as the typical step: the smoothing then spanned
+/// a twentieth of a driving step, every later pose became a corner, and
+/// the history held 33 kB per pose with the worker at 0.1 s per pose (4000
+/// poses: 62 s; the batch path takes 1.4 s for all 26 915).
+#[test]
+fn turning_on_the_spot_during_warm_up_does_not_set_the_step() {
+    let path = Path::new("tests/data/intel_odom_2000.csv");
+    let points = read_trajectory(path, Format::Auto).unwrap().positions();
+    let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
+    for p in &points {
+        d.push(&PoseInput::at(*p));
+    }
+    let step = d.params().expect("warm-up done").typical_step;
+    let (_, summary) = d.finish();
+    // The path's own typical step, from all of it, as the batch path sees it.
+    let plane = turnprint::geometry::Plane::fit(&points);
+    let xy: Vec<_> = points.iter().map(|p| plane.to_2d(p)).collect();
+    let batch = turnprint::track::ChordParam::new(&xy).unwrap().typical_step;
+    assert!(
+        step > batch / 3.0 && step < 3.0 * batch,
+        "warm-up step {step} against the path's {batch}"
+    );
+    let per_pose = summary.worker.history_bytes as f64 / summary.poses as f64;
+    assert!(per_pose < 128.0, "{per_pose} bytes of history per pose");
+}

@@ -28,6 +28,11 @@ pub struct OnlineConfig {
     pub warmup_max_poses: usize,
     /// See `warmup_max_poses`.
     pub plane_ratio: f64,
+    /// The warm-up also waits, up to `warmup_max_poses`, until its moving
+    /// steps are of one kind: their length-weighted median at most this
+    /// many times their median. A robot turning on the spot first moves by
+    /// jitter; parameters chosen there are a twentieth of its real step.
+    pub warmup_step_spread: f64,
     /// The query's own neighbourhood.
     pub exclusion: Exclusion,
     /// Candidates emitted per finalised segment.
@@ -104,6 +109,9 @@ impl Default for OnlineConfig {
             warmup_min_poses: 200,
             warmup_max_poses: 3000,
             plane_ratio: 25.0,
+            // KITTI, EuRoC, TUM and CARMEN prefixes read 1.0-2.3; the
+            // Intel lab's, turning on the spot after 300 poses, 18.
+            warmup_step_spread: 3.0,
             exclusion: Exclusion::Turning(std::f64::consts::FRAC_PI_2),
             top_k: 3,
             min_score: 0.3,
