@@ -144,11 +144,11 @@ pub fn grow_and_refit(
             })
         };
         // Points of the current range that agree on one alignment line.
-        let mut inside = Vec::new();
         let inside_stride = match config.points_per_round {
             0 => stride,
             n => stride.max((range[1] - range[0]) / n),
         };
+        let mut inside = Vec::with_capacity((range[1] - range[0]) / inside_stride + 1);
         let mut g = range[0];
         while g <= range[1] {
             inside.extend(project(g, None));
@@ -287,14 +287,12 @@ fn consistent_line(
         let mut c: Vec<f64> = matches.iter().map(offset).collect();
         c.sort_by(f64::total_cmp);
         let median = c[c.len() / 2];
-        let kept: Vec<Match> = matches
-            .iter()
-            .filter(|m| {
-                (offset(m) - median).abs()
-                    <= width.max(0.1 * scale * (query.s[m.query] - query.s[matches[0].query]).abs())
-            })
-            .copied()
-            .collect();
+        // Room for the growth that follows (it pushes onto these).
+        let mut kept = Vec::with_capacity(2 * matches.len());
+        kept.extend(matches.iter().copied().filter(|m| {
+            (offset(m) - median).abs()
+                <= width.max(0.1 * scale * (query.s[m.query] - query.s[matches[0].query]).abs())
+        }));
         if best.as_ref().is_none_or(|(_, b)| kept.len() > b.len()) {
             best = Some((sign, kept));
         }

@@ -277,17 +277,9 @@ fn pool(
 /// at least `spacing` apart: `(offset, score)`.
 fn peaks(s: &[f64], sign: f64, config: &QueryConfig, spacing: usize) -> Vec<(usize, f64)> {
     let mut found: Vec<(usize, f64)> = Vec::new();
-    for d in 0..s.len() {
-        let v = sign * s[d];
-        if v < config.min_zncc {
-            continue;
-        }
-        let left = d == 0 || sign * s[d - 1] < v;
-        let right = d + 1 == s.len() || sign * s[d + 1] <= v;
-        if left && right {
-            found.push((d, v));
-        }
-    }
+    super::peaks::local_maxima(s, sign, 0..s.len(), config.min_zncc, |d, v| {
+        found.push((d, v))
+    });
     found.sort_by(|a, b| b.1.total_cmp(&a.1));
     let mut kept: Vec<(usize, f64)> = Vec::with_capacity(config.peaks_per_query);
     for (d, v) in found {

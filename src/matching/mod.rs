@@ -2,6 +2,7 @@
 //! normalised cross-correlation (ZNCC), both directions of travel.
 
 pub mod candidates;
+pub mod peaks;
 pub mod turns;
 pub mod zncc;
 

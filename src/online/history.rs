@@ -154,9 +154,12 @@ impl History {
         };
         let sig0 = self.sig_grid.partition_point(|&g| g < g0 as f64);
         let sig1 = self.sig_grid.partition_point(|&g| g <= g1 as f64);
+        let n = sig1.saturating_sub(sig0);
         let mut signature = Signature {
             dk,
-            ..Signature::default()
+            value: Vec::with_capacity(n),
+            s: Vec::with_capacity(n),
+            grid: Vec::with_capacity(n),
         };
         for j in sig0..sig1 {
             let grid = self.sig_grid[j] - g0 as f64;
