@@ -178,6 +178,33 @@ pub fn unwrap(angles: &mut [f64]) {
 mod tests {
     use super::*;
 
+    /// A path that starts slowly (steps a tenth of a bandwidth) and then
+    /// drives at steps of twenty bandwidths: the smoothing chosen on the
+    /// slow start left every grid sample of a later step on one pose, and
+    /// rounding noise between those equal samples counted as turning
+    /// (KITTI 00 entered at a tenth of its speed: 120° per pose). A 90°
+    /// arc must turn 90°.
+    #[test]
+    fn steps_far_wider_than_the_smoothing_add_no_turning() {
+        let mut points: Vec<Vector2<f64>> = (0..200)
+            .map(|i| Vector2::new(0.1 * i as f64, 0.0))
+            .collect();
+        let (r, step) = (100.0, 2.0);
+        let n = (std::f64::consts::FRAC_PI_2 * r / step) as usize;
+        for k in 0..=n {
+            let a = k as f64 * step / r;
+            points.push(Vector2::new(20.0 + r * a.sin(), r * (1.0 - a.cos())));
+        }
+        let chord = ChordParam::new(&points).expect("a moving path");
+        let track = Track::from_smoother(&chord, &Smoother { bandwidth: 0.1 });
+        let turning: f64 = track.curvature.iter().map(|k| k.abs() * track.step).sum();
+        assert!(
+            (turning.to_degrees() - 90.0).abs() < 10.0,
+            "{}° of turning",
+            turning.to_degrees()
+        );
+    }
+
     /// A window cut from the online history keeps the history's arc
     /// lengths; its length is its own, not the history's up to its end.
     #[test]
