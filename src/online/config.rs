@@ -24,7 +24,8 @@ pub struct OnlineConfig {
     pub warmup_min_poses: usize,
     /// The warm-up also waits until the prefix spans a plane (second
     /// eigenvalue of its scatter at least `plane_ratio` times the third), up
-    /// to this many poses.
+    /// to this many poses; past them, until its newest `warmup_min_poses`
+    /// poses are moving (not idling with jitter).
     pub warmup_max_poses: usize,
     /// See `warmup_max_poses`.
     pub plane_ratio: f64,
@@ -109,9 +110,7 @@ impl Default for OnlineConfig {
             warmup_min_poses: 200,
             warmup_max_poses: 3000,
             plane_ratio: 25.0,
-            // KITTI, EuRoC, TUM and CARMEN prefixes read 1.0-2.3; the
-            // Intel lab's, turning on the spot after 300 poses, 18.
-            warmup_step_spread: 3.0,
+            warmup_step_spread: crate::track::chord::STEP_SPREAD,
             exclusion: Exclusion::Turning(std::f64::consts::FRAC_PI_2),
             top_k: 3,
             min_score: 0.3,

@@ -226,11 +226,18 @@ impl Frontend {
             Frontend::Running(s) => s.push(index, &p, counts, out),
             Frontend::Warmup(buf) => {
                 buf.push((index, p));
-                if buf.len() >= config.warmup_min_poses
-                    && (buf.len() >= config.warmup_max_poses
-                        || (spans_plane(buf, config.plane_ratio)
-                            && steps_settled(buf, config.warmup_step_spread)))
-                {
+                // Past `warmup_max_poses` the prefix need only be moving
+                // now: a robot idling with jitter for minutes gives no
+                // parameters, and waits.
+                let ready = match buf.len() {
+                    n if n < config.warmup_min_poses => false,
+                    n if n >= config.warmup_max_poses => moving_now(buf, config.warmup_min_poses),
+                    _ => {
+                        spans_plane(buf, config.plane_ratio)
+                            && steps_settled(buf, config.warmup_step_spread)
+                    }
+                };
+                if ready {
                     self.start(config, counts, out);
                 }
             }
@@ -282,15 +289,13 @@ impl Frontend {
     }
 }
 
-/// Are the prefix's moving steps of one kind: their length-weighted median
-/// (the step length below which half the distance was covered) at most
-/// `spread` times their median? Scale-free. A prefix where a robot first
-/// drives a few steps, then turns on the spot (wheel odometry creeping by
-/// a twentieth of a step per pose), has many tiny steps covering little
+/// Are the prefix's moving steps of one kind ([`ChordParam`]'s
+/// `step_spread` at most `spread`)? A prefix where a robot first drives a
+/// few steps, then turns on the spot (wheel odometry creeping by a
+/// twentieth of a step per pose), has many tiny steps covering little
 /// distance: parameters chosen there smooth over a twentieth of the later
-/// steps and put twenty times the grid samples, each a corner, in every
-/// later step (CARMEN Intel lab: 33 kB of history per pose, 0.1 s per pose
-/// on the worker, where the batch path takes 1.4 s for all 26 915 poses).
+/// steps (CARMEN Intel lab: 33 kB of history per pose, 0.1 s per pose on
+/// the worker, where the batch path takes 1.4 s for all 26 915 poses).
 /// Checked with [`spans_plane`], every 32 poses.
 fn steps_settled(buf: &[(usize, Vector3<f64>)], spread: f64) -> bool {
     let mut steps: Vec<f64> = buf
@@ -298,23 +303,34 @@ fn steps_settled(buf: &[(usize, Vector3<f64>)], spread: f64) -> bool {
         .map(|w| (w[1].1 - w[0].1).norm())
         .filter(|d| *d > 0.0)
         .collect();
-    if steps.is_empty() {
+    steps.sort_by(f64::total_cmp);
+    crate::track::chord::step_spread(&steps) <= spread
+}
+
+/// Do the newest `n` poses go somewhere: most of them (three quarters) end
+/// a run of [`RUN`] steps whose chord is at least [`STRAIGHT`] of its
+/// length? Jitter of a robot standing still wanders (a random walk's chord
+/// over 8 steps is about a third of its length), a robot that moves does
+/// not, however slowly. Checked every 32 poses.
+fn moving_now(buf: &[(usize, Vector3<f64>)], n: usize) -> bool {
+    if !buf.len().is_multiple_of(32) || buf.len() < n + RUN {
         return false;
     }
-    steps.sort_by(f64::total_cmp);
-    let median = steps[steps.len() / 2];
-    let half = 0.5 * steps.iter().sum::<f64>();
-    let mut covered = 0.0;
-    let weighted = steps
-        .iter()
-        .find(|d| {
-            covered += **d;
-            covered >= half
+    let recent = &buf[buf.len() - n - RUN..];
+    let going = recent
+        .windows(RUN + 1)
+        .filter(|w| {
+            let path: f64 = w.windows(2).map(|s| (s[1].1 - s[0].1).norm()).sum();
+            path > 0.0 && (w[RUN].1 - w[0].1).norm() >= STRAIGHT * path
         })
-        .copied()
-        .unwrap_or(median);
-    weighted <= spread * median
+        .count();
+    4 * going >= 3 * n
 }
+
+/// Steps per run in [`moving_now`].
+const RUN: usize = 8;
+/// Chord over length of a run that moves.
+const STRAIGHT: f64 = 0.7;
 
 /// Does the prefix span a plane (not just a line)?
 fn spans_plane(buf: &[(usize, Vector3<f64>)], ratio: f64) -> bool {
