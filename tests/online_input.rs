@@ -31,6 +31,15 @@ fn front(points: &[Vector3<f64>]) -> (Outbox, GuardCounts) {
     (out, counts)
 }
 
+/// The summary of streaming `points` with the default settings.
+fn streamed(points: &[Vector3<f64>]) -> turnprint::online::Summary {
+    let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
+    for p in points {
+        d.push(&PoseInput::at(*p));
+    }
+    d.finish().1
+}
+
 fn turning(out: &Outbox) -> f64 {
     out.sig.len() as f64 * 2f64.to_radians()
 }
@@ -293,14 +302,7 @@ fn speeding_up_tenfold_after_the_warm_up_adds_no_turning() {
         slow.extend((0..10).map(|k| w[0] + (w[1] - w[0]) * (k as f64 / 10.0)));
     }
     slow.extend_from_slice(&gt[250..frames]);
-    let summary = |points: &[Vector3<f64>]| {
-        let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
-        for p in points {
-            d.push(&PoseInput::at(*p));
-        }
-        d.finish().1
-    };
-    let (plain, slow) = (summary(&gt[..frames]), summary(&slow));
+    let (plain, slow) = (streamed(&gt[..frames]), streamed(&slow));
     let turning = |s: &turnprint::online::Summary| s.worker.sig_samples as f64;
     assert!(
         turning(&slow) < 1.5 * turning(&plain),
@@ -330,14 +332,7 @@ fn idling_with_jitter_for_minutes_before_driving_adds_no_turning() {
         .map(|_| gt[0] + Vector3::new(jitter(), jitter(), jitter()))
         .collect();
     idle.extend_from_slice(&gt[..frames]);
-    let summary = |points: &[Vector3<f64>]| {
-        let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
-        for p in points {
-            d.push(&PoseInput::at(*p));
-        }
-        d.finish().1
-    };
-    let (plain, idle) = (summary(&gt[..frames]), summary(&idle));
+    let (plain, idle) = (streamed(&gt[..frames]), streamed(&idle));
     assert!(
         (idle.worker.sig_samples as f64) < 1.5 * plain.worker.sig_samples as f64,
         "{} signature samples against {} without the idling",
