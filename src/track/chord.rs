@@ -178,9 +178,9 @@ impl ChordParam {
     /// [`STEP_SPREAD`]: a robot idling with jitter, or creeping while it
     /// turns on the spot, for much of the path) the quantile is taken by
     /// distance covered, not by count: jitter covers little distance.
-    /// Counted, 5 000 poses of 2 mm jitter before 2 000 of driving set the
-    /// threshold to a millimetre, every jitter step was kept, and its
-    /// turning filled the signature.
+    /// Counted, where most poses are jitter (a robot idling for minutes
+    /// before a drive), the threshold fell to the jitter's own steps, every
+    /// jitter pose was kept, and its turning filled the signature.
     pub fn min_step_of(points: &[Vector2<f64>]) -> Option<f64> {
         if points.len() < 2 {
             return None;
