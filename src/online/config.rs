@@ -29,11 +29,6 @@ pub struct OnlineConfig {
     pub warmup_max_poses: usize,
     /// See `warmup_max_poses`.
     pub plane_ratio: f64,
-    /// The warm-up also waits, up to `warmup_max_poses`, until its moving
-    /// steps are of one kind: their length-weighted median at most this
-    /// many times their median. A robot turning on the spot first moves by
-    /// jitter; parameters chosen there are a twentieth of its real step.
-    pub warmup_step_spread: f64,
     /// The query's own neighbourhood.
     pub exclusion: Exclusion,
     /// Candidates emitted per finalised segment.
@@ -110,7 +105,6 @@ impl Default for OnlineConfig {
             warmup_min_poses: 200,
             warmup_max_poses: 3000,
             plane_ratio: 25.0,
-            warmup_step_spread: crate::track::chord::STEP_SPREAD,
             exclusion: Exclusion::Turning(std::f64::consts::FRAC_PI_2),
             top_k: 3,
             min_score: 0.3,

@@ -232,10 +232,7 @@ impl Frontend {
                 let ready = match buf.len() {
                     n if n < config.warmup_min_poses => false,
                     n if n >= config.warmup_max_poses => moving_now(buf, config.warmup_min_poses),
-                    _ => {
-                        spans_plane(buf, config.plane_ratio)
-                            && steps_settled(buf, config.warmup_step_spread)
-                    }
+                    _ => spans_plane(buf, config.plane_ratio),
                 };
                 if ready {
                     self.start(config, counts, out);
@@ -287,24 +284,6 @@ impl Frontend {
             Frontend::Warmup(_) => None,
         }
     }
-}
-
-/// Are the prefix's moving steps of one kind ([`ChordParam`]'s
-/// `step_spread` at most `spread`)? A prefix where a robot first drives a
-/// few steps, then turns on the spot (wheel odometry creeping by a
-/// twentieth of a step per pose), has many tiny steps covering little
-/// distance: parameters chosen there smooth over a twentieth of the later
-/// steps (CARMEN Intel lab: 33 kB of history per pose, 0.1 s per pose on
-/// the worker, where the batch path takes 1.4 s for all 26 915 poses).
-/// Checked with [`spans_plane`], every 32 poses.
-fn steps_settled(buf: &[(usize, Vector3<f64>)], spread: f64) -> bool {
-    let mut steps: Vec<f64> = buf
-        .windows(2)
-        .map(|w| (w[1].1 - w[0].1).norm())
-        .filter(|d| *d > 0.0)
-        .collect();
-    steps.sort_by(f64::total_cmp);
-    crate::track::chord::step_spread(&steps) <= spread
 }
 
 /// Do the newest `n` poses go somewhere: most of them (three quarters) end
