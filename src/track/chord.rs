@@ -174,8 +174,8 @@ impl ChordParam {
     /// upper quantile of its step lengths, so that long stops (many
     /// near-zero steps) do not drag it down. `None` when nothing moves.
     ///
-    /// When the moving steps are of two kinds ([`step_spread`] above
-    /// [`STEP_SPREAD`]: a robot idling with jitter, or creeping while it
+    /// When the moving steps are of two kinds (`step_spread` above
+    /// `STEP_SPREAD`: a robot idling with jitter, or creeping while it
     /// turns on the spot, for much of the path) the quantile is taken by
     /// distance covered, not by count: jitter covers little distance. (The
     /// online warm-up chooses from a prefix: the Intel lab robot's first
