@@ -45,6 +45,9 @@ struct Args {
     /// strong model's (real monocular ORB-SLAM2: 0.003-0.008).
     #[arg(long)]
     drift_log_scale: Option<f64>,
+    /// KITTI sequences, comma-separated (held-out ones: 07,09).
+    #[arg(long, value_delimiter = ',', default_values_t = eval::data::SEQUENCES.map(String::from))]
+    sequences: Vec<String>,
     /// What to evaluate.
     #[arg(long, value_enum, default_value = "all")]
     what: WhatArg,
@@ -61,6 +64,7 @@ fn main() -> ExitCode {
         loop_min_score: args.loop_min_score,
         drift_factor: args.drift_factor,
         drift_log_scale: args.drift_log_scale,
+        sequences: args.sequences,
         what: match args.what {
             WhatArg::Merge => What::Merge,
             WhatArg::Loops => What::Loops,

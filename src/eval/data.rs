@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::revisits::arc_lengths;
-use super::similarity::umeyama;
+use crate::geometry::Similarity3;
 use crate::{Error, Result};
 
 /// The KITTI sequences with loops that the evaluation uses.
@@ -201,7 +201,7 @@ pub fn align_gps(seq: &Sequence, rows: &[(f64, Vector3<f64>)]) -> Option<(Source
         if src.len() * 10 < rows.len() * 8 {
             return None;
         }
-        let sim = umeyama(&src, &dst)?;
+        let sim = Similarity3::fit(&src, &dst)?;
         let sq: f64 = src
             .iter()
             .zip(&dst)

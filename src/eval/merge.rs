@@ -9,9 +9,10 @@ use rand::{seq::IndexedRandom, Rng};
 use serde::Serialize;
 
 use super::checks::{merge_verdict, merge_verdict_of, overlap, road_turning_deg};
-use super::similarity::{random_similarity, rotation_error_deg, scale_error_pct, umeyama};
+use super::similarity::{random_similarity, rotation_error_deg, scale_error_pct};
 use super::windows::{overlapping_window, random_window, revisit_windows, Window, WindowSpec};
 use super::{Prepared, Source};
+use crate::geometry::Similarity3;
 use crate::pipeline::{match_paths, Config};
 use crate::{Hypothesis, Trajectory};
 
@@ -207,7 +208,7 @@ pub fn window_case(
     let b_traj = Trajectory::from_positions(format!("{}-{}", p.seq.name, source.name()), &b.input);
     let src: Vec<_> = truth.b.iter().map(|&k| b.input[k]).collect();
     let dst: Vec<_> = truth.b.iter().map(|&k| b.truth[k]).collect();
-    let best = umeyama(&src, &dst);
+    let best = Similarity3::fit(&src, &dst);
     let oracle_correct = best.as_ref().is_some_and(|o| {
         let (a_all, b_all) = (
             [truth.a[0], truth.a[truth.a.len() - 1]],

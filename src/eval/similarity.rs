@@ -1,6 +1,7 @@
 //! Similarity transforms for the evaluation: the random frame changes applied
-//! to test paths, the least-squares (Umeyama) fit used to recover the true
-//! similarity of a noisy source, and the errors between two similarities.
+//! to test paths and the errors between two similarities (the least-squares
+//! fit that recovers a noisy source's true similarity is the library's
+//! [`Similarity3::fit`]).
 //! All are [`Similarity3`] (`p_dst = s R p_src + t`), the library's own.
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector4};
@@ -43,46 +44,6 @@ pub fn random_similarity(rng: &mut impl Rng, extent: f64) -> Similarity3 {
         rotation,
         translation,
     }
-}
-
-/// Least-squares similarity with `dst_i ~ s R src_i + t` (Umeyama 1991):
-/// with centred point sets and `Sigma = (1/n) sum dst_c src_c^T = U D V^T`,
-/// `R = U S V^T` (`S` flips the last axis when `det(U V^T) < 0`),
-/// `s = tr(D S) / var(src)`, `t = mean(dst) - s R mean(src)`.
-/// `None` for fewer than 3 pairs or a degenerate (single-point) source.
-pub fn umeyama(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<Similarity3> {
-    let n = src.len();
-    if n < 3 || dst.len() != n {
-        return None;
-    }
-    let mean = |v: &[Vector3<f64>]| v.iter().sum::<Vector3<f64>>() / n as f64;
-    let (mu_src, mu_dst) = (mean(src), mean(dst));
-    let mut sigma = Matrix3::zeros();
-    let mut var_src = 0.0;
-    for (s, d) in src.iter().zip(dst) {
-        let (sc, dc) = (s - mu_src, d - mu_dst);
-        sigma += dc * sc.transpose();
-        var_src += sc.norm_squared();
-    }
-    sigma /= n as f64;
-    var_src /= n as f64;
-    if var_src <= f64::EPSILON {
-        return None;
-    }
-    let svd = sigma.svd(true, true);
-    let (u, v_t) = (svd.u?, svd.v_t?);
-    let mut signs = Vector3::new(1.0, 1.0, 1.0);
-    if (u * v_t).determinant() < 0.0 {
-        signs[2] = -1.0;
-    }
-    let rotation = u * Matrix3::from_diagonal(&signs) * v_t;
-    let scale = svd.singular_values.dot(&signs) / var_src;
-    let translation = mu_dst - scale * (rotation * mu_src);
-    Some(Similarity3 {
-        scale,
-        rotation,
-        translation,
-    })
 }
 
 /// Angle (degrees) of the rotation taking `r_true` to `r_est`:
@@ -129,7 +90,7 @@ mod tests {
     }
 
     #[test]
-    fn umeyama_recovers_a_random_similarity() {
+    fn fit_recovers_a_random_similarity() {
         let mut rng = StdRng::seed_from_u64(9);
         let src: Vec<Vector3<f64>> = (0..50)
             .map(|_| {
@@ -139,7 +100,7 @@ mod tests {
         for _ in 0..20 {
             let truth = random_similarity(&mut rng, 100.0);
             let dst: Vec<_> = src.iter().map(|p| truth.apply(p)).collect();
-            let fit = umeyama(&src, &dst).unwrap();
+            let fit = Similarity3::fit(&src, &dst).unwrap();
             assert!(scale_error_pct(fit.scale, truth.scale) < 1e-8);
             assert!(rotation_error_deg(&fit.rotation, &truth.rotation) < 1e-5);
             let back = truth.inverse();
@@ -148,9 +109,9 @@ mod tests {
     }
 
     #[test]
-    fn umeyama_rejects_degenerate_input() {
+    fn fit_rejects_degenerate_input() {
         let p = vec![Vector3::new(1.0, 2.0, 3.0); 5];
-        assert!(umeyama(&p, &p).is_none());
-        assert!(umeyama(&p[..2], &p[..2]).is_none());
+        assert!(Similarity3::fit(&p, &p).is_none());
+        assert!(Similarity3::fit(&p[..2], &p[..2]).is_none());
     }
 }

@@ -144,6 +144,46 @@ impl Similarity3 {
         }
     }
 
+    /// Least-squares similarity with `dst_i ~ s R src_i + t` (Umeyama 1991):
+    /// with centred point sets and `Sigma = (1/n) sum dst_c src_c^T = U D V^T`,
+    /// `R = U S V^T` (`S` flips the last axis when `det(U V^T) < 0`),
+    /// `s = tr(D S) / var(src)`, `t = mean(dst) - s R mean(src)`.
+    /// `None` for fewer than 3 pairs or a degenerate (single-point) source.
+    pub fn fit(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<Self> {
+        let n = src.len();
+        if n < 3 || dst.len() != n {
+            return None;
+        }
+        let mean = |v: &[Vector3<f64>]| v.iter().sum::<Vector3<f64>>() / n as f64;
+        let (mu_src, mu_dst) = (mean(src), mean(dst));
+        let mut sigma = Matrix3::zeros();
+        let mut var_src = 0.0;
+        for (s, d) in src.iter().zip(dst) {
+            let (sc, dc) = (s - mu_src, d - mu_dst);
+            sigma += dc * sc.transpose();
+            var_src += sc.norm_squared();
+        }
+        sigma /= n as f64;
+        var_src /= n as f64;
+        if var_src <= f64::EPSILON {
+            return None;
+        }
+        let svd = sigma.svd(true, true);
+        let (u, v_t) = (svd.u?, svd.v_t?);
+        let mut signs = Vector3::new(1.0, 1.0, 1.0);
+        if (u * v_t).determinant() < 0.0 {
+            signs[2] = -1.0;
+        }
+        let rotation = u * Matrix3::from_diagonal(&signs) * v_t;
+        let scale = svd.singular_values.dot(&signs) / var_src;
+        let translation = mu_dst - scale * (rotation * mu_src);
+        Some(Similarity3 {
+            scale,
+            rotation,
+            translation,
+        })
+    }
+
     /// Rotation angle in radians (the geodesic distance to the identity).
     pub fn angle(&self) -> f64 {
         ((self.rotation.trace() - 1.0) / 2.0)

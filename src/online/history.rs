@@ -182,6 +182,8 @@ impl History {
                 bounds,
                 polyline,
                 poses,
+                // The online history is planar: heights are not kept.
+                heights: Vec::new(),
             },
             grid0: g0,
             sig0,

@@ -311,7 +311,17 @@ fn to_hypothesis(
 ) -> Hypothesis {
     let o = &v.overlap;
     let mirrored = v.candidate.orientation.mirrored;
-    let mut a_t_b = pa.plane.lift(&pb.plane(mirrored), &o.a_T_b);
+    let lifted = pa.plane.lift(&pb.plane(mirrored), &o.a_T_b);
+    // Each plane is its whole path's: the common road's own 3D points fix
+    // the tilt between them.
+    let step = (o.pairs.len() / 200).max(1);
+    let points: Vec<_> = o
+        .pairs
+        .iter()
+        .step_by(step)
+        .map(|&(t, q)| (pa.point3_at(t), pb.point3_at(q as f64)))
+        .collect();
+    let mut a_t_b = crate::align::refine_lift(&lifted, &points);
     let mut a_range = [pa.pose_of_grid(o.target[0]), pa.pose_of_grid(o.target[1])];
     let mut b_range = [
         pb.pose_of_grid(o.query[0] as f64),

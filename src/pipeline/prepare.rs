@@ -1,7 +1,7 @@
 //! One path through the stages up to its segments: plane, track, signature,
 //! boundaries, and the polyline index used by alignment.
 
-use nalgebra::Vector2;
+use nalgebra::{Vector2, Vector3};
 
 use super::Config;
 use crate::geometry::{Plane, Polyline2};
@@ -27,6 +27,8 @@ pub struct PreparedPath {
     pub polyline: Polyline2,
     /// Number of poses in the input.
     pub poses: usize,
+    /// Height of each pose above the plane (the part the 2D stages drop).
+    pub heights: Vec<f64>,
 }
 
 impl PreparedPath {
@@ -62,6 +64,7 @@ impl PreparedPath {
         let signature = Signature::build(&track, &config.signature);
         let bounds = boundaries(&signature, &config.segments);
         let polyline = Polyline2::new(&track.xy);
+        let heights = positions.iter().map(|p| plane.local(p).z).collect();
         Ok(PreparedPath {
             plane,
             track,
@@ -69,7 +72,16 @@ impl PreparedPath {
             bounds,
             polyline,
             poses: n,
+            heights,
         })
+    }
+
+    /// 3D position of a fractional grid index: the smoothed track in the
+    /// plane, at the height of the poses there.
+    pub fn point3_at(&self, grid: f64) -> Vector3<f64> {
+        let xy = self.track.point_at(grid);
+        let height = Track::interp(&self.heights, Track::interp(&self.track.pose, grid));
+        self.plane.origin + self.plane.world_R_plane * Vector3::new(xy.x, xy.y, height)
     }
 
     /// The track's points, mirrored (`y -> -y`) when asked: the path seen
