@@ -8,7 +8,28 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
-use turnprint::eval::{self, Options, What};
+use turnprint::eval::{self, Options, Source, What};
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SourceArg {
+    Gt,
+    Mono,
+    Gps,
+    Drift,
+    Stereo,
+}
+
+impl From<SourceArg> for Source {
+    fn from(s: SourceArg) -> Source {
+        match s {
+            SourceArg::Gt => Source::Gt,
+            SourceArg::Mono => Source::Mono,
+            SourceArg::Gps => Source::Gps,
+            SourceArg::Drift => Source::Drift,
+            SourceArg::Stereo => Source::Stereo,
+        }
+    }
+}
 
 #[derive(Clone, Copy, ValueEnum)]
 enum WhatArg {
@@ -48,6 +69,13 @@ struct Args {
     /// KITTI sequences, comma-separated (held-out ones: 07,09).
     #[arg(long, value_delimiter = ',', default_values_t = eval::data::SEQUENCES.map(String::from))]
     sequences: Vec<String>,
+    /// Sources of B in the merge cases, comma-separated (`stereo`: S-PTAM
+    /// stereo VO of KITTI 00, not loop-closed).
+    #[arg(long, value_enum, value_delimiter = ',', default_values = ["gt", "mono", "gps"])]
+    sources: Vec<SourceArg>,
+    /// Sources of the loop runs, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_values = ["gt", "mono", "drift"])]
+    loop_sources: Vec<SourceArg>,
     /// What to evaluate.
     #[arg(long, value_enum, default_value = "all")]
     what: WhatArg,
@@ -65,6 +93,8 @@ fn main() -> ExitCode {
         drift_factor: args.drift_factor,
         drift_log_scale: args.drift_log_scale,
         sequences: args.sequences,
+        merge_sources: args.sources.into_iter().map(Source::from).collect(),
+        loop_sources: args.loop_sources.into_iter().map(Source::from).collect(),
         what: match args.what {
             WhatArg::Merge => What::Merge,
             WhatArg::Loops => What::Loops,

@@ -10,9 +10,11 @@
 //! runs or within 40 m after it; the delay is the distance driven inside the
 //! event before that candidate's `at_pose`.
 //!
-//! Usage: `cargo run --release --example evaluate_online -- [gt|orb|drift] [SEQ...]`
+//! Usage: `cargo run --release --example evaluate_online -- [gt|orb|stereo|drift|strong] [SEQ...]`
 //! (data from ../shared/data, or `DATA=dir`). `gt` streams the ground truth, `orb` the
-//! monocular ORB-SLAM2 estimate (paired to GT frames by timestamp), `drift`
+//! monocular ORB-SLAM2 estimate (paired to GT frames by timestamp), `stereo`
+//! the S-PTAM stereo estimate of KITTI 00 (one pose per frame, real drift,
+//! no loop closure; 00 only), `drift`
 //! the ground truth with added drift (heading random walk and scale drift),
 //! `strong` the ground truth through the evaluation's strong drift model
 //! (`eval::drift::DriftModel::strong`, seed `SEED`, default 1; `DRIFT_FACTOR=f`
@@ -38,6 +40,8 @@ fn main() {
     let mode = args.first().cloned().unwrap_or_else(|| "gt".into());
     let seqs: Vec<String> = if args.len() > 1 {
         args[1..].to_vec()
+    } else if mode == "stereo" {
+        vec!["00".to_string()]
     } else {
         ["00", "02", "05", "06", "08"]
             .iter()
@@ -70,6 +74,11 @@ fn main() {
         // Input poses and the GT frame of each.
         let (input, frames): (Vec<Vector3<f64>>, Vec<usize>) = match mode.as_str() {
             "orb" => orb_paired(seq, gt_xyz.len()),
+            "stereo" => {
+                let path = format!("{}/evo/KITTI_{seq}_SPTAM.txt", data_dir());
+                let stereo = read_trajectory(Path::new(&path), Format::Kitti).expect("S-PTAM");
+                (stereo.positions(), (0..gt_xyz.len()).collect())
+            }
             "drift" => (drifted(&gt_xyz), (0..gt_xyz.len()).collect()),
             "strong" => {
                 use rand::SeedableRng;

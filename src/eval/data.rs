@@ -55,6 +55,8 @@ pub struct Sequence {
     pub mono: Sourced,
     /// Real GPS (00 only), paired to frames by the aligned time.
     pub gps: Option<(Sourced, GpsAlignment)>,
+    /// Stereo VO without loop closure (S-PTAM, 00 only), one pose per frame.
+    pub stereo: Sourced,
 }
 
 impl Sequence {
@@ -170,7 +172,20 @@ pub fn load_sequence(dir: &Path, name: &str) -> Result<Sequence> {
         arc,
         mono,
         gps: None,
+        stereo: Sourced::default(),
     };
+    let stereo_path = locate(dir, "evo", &format!("KITTI_{name}_SPTAM.txt"));
+    if let Some(stereo_path) = stereo_path {
+        let positions = reader::kitti_positions(&stereo_path)?;
+        if positions.len() != seq.gt.len() {
+            return Err(Error::input(
+                stereo_path.display().to_string(),
+                format!("{} poses for {} frames", positions.len(), seq.gt.len()),
+            ));
+        }
+        seq.stereo.frames = (0..positions.len()).map(|f| f as f64).collect();
+        seq.stereo.positions = positions;
+    }
     let gps_path = locate(dir, "gtsam_data", "KittiGps_converted.txt");
     if let (Some(gps_path), "00", false) = (gps_path, name, seq.times.is_empty()) {
         let rows = reader::timed(&gps_path, crate::io::Format::Csv)?;
@@ -315,6 +330,7 @@ mod tests {
             times,
             mono: Sourced::default(),
             gps: None,
+            stereo: Default::default(),
         };
         let frame = crate::geometry::Similarity3 {
             scale: 1.0,

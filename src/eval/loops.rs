@@ -62,6 +62,7 @@ fn input(
     let all_frames = || (0..seq.gt.len()).map(|f| f as f64).collect();
     match source {
         Source::Mono => (seq.mono.positions.clone(), seq.mono.frames.clone()),
+        Source::Stereo => (seq.stereo.positions.clone(), seq.stereo.frames.clone()),
         Source::Drift => (drift.apply(&seq.gt, rng), all_frames()),
         Source::Gt | Source::Gps => (seq.gt.clone(), all_frames()),
     }

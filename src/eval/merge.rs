@@ -92,6 +92,7 @@ fn cut(p: &Prepared, source: Source, w: Window) -> Cut {
             (w[0]..=w[1]).map(|f| f as f64).collect(),
         ),
         Source::Mono => keep(&seq.mono.positions, &seq.mono.frames, lo, hi),
+        Source::Stereo => keep(&seq.stereo.positions, &seq.stereo.frames, lo, hi),
         Source::Gps => match &seq.gps {
             Some((g, _)) => keep(&g.positions, &g.frames, lo, hi),
             None => (Vec::new(), Vec::new()),
@@ -263,16 +264,17 @@ pub fn window_case(
 pub fn negative_case(
     rng: &mut impl Rng,
     all: &[Prepared],
+    sources: &[Source],
     reversed: bool,
     spec: &WindowSpec,
 ) -> Option<NegativeCase> {
+    if all.len() < 2 {
+        return None;
+    }
     let ia = rng.random_range(0..all.len());
     let ib = (ia + rng.random_range(1..all.len())) % all.len();
     let (pa, pb) = (&all[ia], &all[ib]);
-    let sources: Vec<Source> = [Source::Gt, Source::Mono, Source::Gps]
-        .into_iter()
-        .filter(|s| pb.has(*s))
-        .collect();
+    let sources: Vec<Source> = sources.iter().copied().filter(|s| pb.has(*s)).collect();
     let source = *sources.choose(rng)?;
     let a_win = random_window(rng, &pa.seq.arc, spec.a_len.0, spec.a_len.1)?;
     let b_win = random_window(rng, &pb.seq.arc, spec.a_len.0, spec.a_len.1)?;
@@ -328,6 +330,7 @@ mod tests {
             gt,
             mono,
             gps: None,
+            stereo: Default::default(),
         };
         Prepared::new(seq)
     }

@@ -46,6 +46,9 @@ pub enum Source {
     Gps,
     /// Ground truth with strong heading and scale drift.
     Drift,
+    /// Stereo visual odometry without loop closure (S-PTAM, KITTI 00): a
+    /// real drifting estimate at the true scale.
+    Stereo,
 }
 
 impl Source {
@@ -56,6 +59,7 @@ impl Source {
             Source::Mono => "mono",
             Source::Gps => "gps",
             Source::Drift => "drift",
+            Source::Stereo => "stereo",
         }
     }
 }
@@ -89,6 +93,7 @@ impl Prepared {
             Source::Gt | Source::Drift => true,
             Source::Mono => !self.seq.mono.positions.is_empty(),
             Source::Gps => self.seq.gps.is_some(),
+            Source::Stereo => !self.seq.stereo.positions.is_empty(),
         }
     }
 }
@@ -129,6 +134,10 @@ pub struct Options {
     /// KITTI sequences to draw from (default [`SEQUENCES`]; others, such as
     /// 07 and 09, serve as held-out data).
     pub sequences: Vec<String>,
+    /// Sources of B in the merge cases, taking turns (those a sequence has).
+    pub merge_sources: Vec<Source>,
+    /// Sources of the loop runs.
+    pub loop_sources: Vec<Source>,
 }
 
 impl Default for Options {
@@ -144,6 +153,8 @@ impl Default for Options {
             drift_factor: 1.0,
             drift_log_scale: None,
             sequences: SEQUENCES.iter().map(|s| s.to_string()).collect(),
+            merge_sources: vec![Source::Gt, Source::Mono, Source::Gps],
+            loop_sources: vec![Source::Gt, Source::Mono, Source::Drift],
         }
     }
 }
@@ -165,7 +176,7 @@ pub fn run(opts: &Options) -> Result<Report> {
     } + if do_loops {
         let inputs = prepared
             .iter()
-            .map(|p| 2 + usize::from(p.has(Source::Mono)));
+            .map(|p| opts.loop_sources.iter().filter(|s| p.has(**s)).count());
         inputs.sum::<usize>() * opts.loop_seeds as usize
     } else {
         0
@@ -177,8 +188,10 @@ pub fn run(opts: &Options) -> Result<Report> {
         let mut rng = StdRng::seed_from_u64(opts.seed);
         // Sources take turns (only those with data: GPS is KITTI 00's);
         // every other round of turns has B reversed.
-        let sources: Vec<Source> = [Source::Gt, Source::Mono, Source::Gps]
-            .into_iter()
+        let sources: Vec<Source> = opts
+            .merge_sources
+            .iter()
+            .copied()
             .filter(|s| prepared.iter().any(|p| p.has(*s)))
             .collect();
         let (mut cases, mut unattainable) = (Vec::new(), Vec::new());
@@ -202,9 +215,13 @@ pub fn run(opts: &Options) -> Result<Report> {
         draws = 0;
         while negatives.len() < opts.negatives && draws < 50 * opts.negatives.max(1) {
             draws += 1;
-            if let Some(n) =
-                merge::negative_case(&mut rng, &prepared, negatives.len() % 2 == 1, &spec)
-            {
+            if let Some(n) = merge::negative_case(
+                &mut rng,
+                &prepared,
+                &sources,
+                negatives.len() % 2 == 1,
+                &spec,
+            ) {
                 negatives.push(n);
                 bar.inc(1);
             }
@@ -218,7 +235,7 @@ pub fn run(opts: &Options) -> Result<Report> {
         }
         let mut runs = Vec::new();
         for p in &prepared {
-            for source in [Source::Gt, Source::Mono, Source::Drift] {
+            for &source in &opts.loop_sources {
                 if !p.has(source) {
                     continue;
                 }

@@ -164,7 +164,11 @@ impl Report {
     ) {
         let all: Vec<&MergeCase> = cases.iter().collect();
         let mut rows = vec![merge_row("all", &all)];
-        for s in [Source::Gt, Source::Mono, Source::Gps] {
+        let mut sources: Vec<Source> = all.iter().map(|c| c.source).collect();
+        sources.extend([Source::Gt, Source::Mono, Source::Gps]);
+        sources.sort();
+        sources.dedup();
+        for s in sources {
             let g: Vec<_> = all.iter().copied().filter(|c| c.source == s).collect();
             rows.push(merge_row(format!("source {}", s.name()), &g));
         }
@@ -253,7 +257,10 @@ impl Report {
                 &r.sequence == seq && r.source == *source
             }));
         }
-        for source in [Source::Gt, Source::Mono, Source::Drift] {
+        let mut sources: Vec<Source> = runs.iter().map(|r| r.source).collect();
+        sources.sort();
+        sources.dedup();
+        for source in sources {
             rows.push(row("all", source.name(), &|r| r.source == source));
         }
         rows.push(row("all", "all", &|_| true));
