@@ -65,7 +65,16 @@ pub struct HypothesisJson {
 }
 
 impl Hypothesis {
-    /// Rotation angle of the similarity (radians).
+    /// The similarity `p_A = scale · rotation · p_B + translation`.
+    pub fn similarity(&self) -> crate::geometry::Similarity3 {
+        crate::geometry::Similarity3 {
+            scale: self.scale,
+            rotation: self.rotation,
+            translation: self.translation,
+        }
+    }
+
+    /// Rotation angle (radians) of the similarity.
     pub fn rotation_angle(&self) -> f64 {
         ((self.rotation.trace() - 1.0) / 2.0)
             .clamp(-1.0, 1.0)

@@ -4,8 +4,10 @@
 
 pub mod grow;
 pub mod lift;
+pub mod polish;
 pub mod ransac;
 
 pub use grow::{grow_and_refit, Overlap};
 pub use lift::refine_lift;
+pub use polish::{polish, search_window, RawPath};
 pub use ransac::ransac_similarity;

@@ -184,6 +184,7 @@ impl History {
                 poses,
                 // The online history is planar: heights are not kept.
                 heights: Vec::new(),
+                positions: Vec::new(),
             },
             grid0: g0,
             sig0,

@@ -20,6 +20,8 @@ pub use merge::merge;
 pub use prepare::PreparedPath;
 pub use verify::Verified;
 
+use nalgebra::Vector3;
+
 use crate::matching::candidates::{queries, search, to_verify};
 use crate::matching::turns::{propose, turns};
 use crate::matching::Correlator;
@@ -33,6 +35,29 @@ pub fn match_paths(a: &Trajectory, b: &Trajectory, config: &Config) -> Result<Ve
     let pa = PreparedPath::new(a, config)?;
     let pb = PreparedPath::new(b, config)?;
     Ok(match_across_rates(a, b, &pa, &pb, config))
+}
+
+/// Each hypothesis' similarity polished on the raw poses `a` and `b`
+/// ([`crate::align::polish`]); for loops (`b` is `a`) the search stays
+/// clear of the part being mapped.
+fn polished(
+    a: &[Vector3<f64>],
+    b: &[Vector3<f64>],
+    mut hypotheses: Vec<Hypothesis>,
+    loops: bool,
+) -> Vec<Hypothesis> {
+    if hypotheses.is_empty() || a.is_empty() || b.is_empty() {
+        return hypotheses;
+    }
+    let raw_a = crate::align::RawPath::new(a);
+    for h in &mut hypotheses {
+        let window = crate::align::search_window(h.a_range, loops.then_some(h.b_range));
+        let a_t_b = crate::align::polish(&raw_a, window, b, h.b_range, &h.similarity());
+        h.scale = a_t_b.scale;
+        h.rotation = a_t_b.rotation;
+        h.translation = a_t_b.translation;
+    }
+    hypotheses
 }
 
 /// [`match_prepared`], and when one path is sampled several times more
@@ -49,12 +74,14 @@ pub fn match_across_rates(
     let mut all = match_prepared(pa, pb, config);
     let ratio = resolution::density_ratio(pa, pb);
     let Some(k) = resolution::thinning(ratio) else {
-        return all;
+        let ranked = rank::rank(all, config.top_k, config.min_score);
+        return polished(&pa.positions, &pb.positions, ranked, false);
     };
     let a_denser = ratio >= 1.0;
     let dense = if a_denser { a } else { b };
     let Ok(thin) = PreparedPath::new(&resolution::thinned(dense, k), config) else {
-        return all;
+        let ranked = rank::rank(all, config.top_k, config.min_score);
+        return polished(&pa.positions, &pb.positions, ranked, false);
     };
     let coarse = match a_denser {
         true => match_prepared(&thin, pb, config),
@@ -71,7 +98,9 @@ pub fn match_across_rates(
         }
         all.push(h);
     }
-    rank::rank(all, config.top_k, config.min_score)
+    let ranked = rank::rank(all, config.top_k, config.min_score);
+    // The reported similarities, refined on the raw poses.
+    polished(&pa.positions, &pb.positions, ranked, false)
 }
 
 /// [`match_paths`] on prepared paths.
@@ -282,7 +311,9 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
         };
         hypotheses.push(Hypothesis { score: s, ..h });
     }
-    rank::rank(hypotheses, config.top_k, config.min_score)
+    let ranked = rank::rank(hypotheses, config.top_k, config.min_score);
+    // The reported similarities, refined on the raw poses.
+    polished(&pa.positions, &pa.positions, ranked, true)
 }
 
 /// Median distance in the map between corresponding poses of a loop.

@@ -29,6 +29,8 @@ pub struct PreparedPath {
     pub poses: usize,
     /// Height of each pose above the plane (the part the 2D stages drop).
     pub heights: Vec<f64>,
+    /// The input positions (the reported similarities are polished on them).
+    pub positions: Vec<Vector3<f64>>,
 }
 
 impl PreparedPath {
@@ -73,6 +75,7 @@ impl PreparedPath {
             polyline,
             poses: n,
             heights,
+            positions,
         })
     }
 

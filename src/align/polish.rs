@@ -1,0 +1,289 @@
+//! Polish: the reported similarity of an overlap, refined on the raw poses
+//! by Gauss-Newton on point-to-line distances.
+//!
+//! Growth refits point to point on the smoothed tracks. Along a road every
+//! pair drags the fit along it, so where a single corner is all the shape
+//! an overlap has, the scale stopped a few percent off (ground truth against
+//! itself: 1.5 %, 0.7 m at the ends of 250 m). Point-to-line residuals let
+//! points slide along the road, and the corner alone then fixes the scale
+//! (the same case: 0.00 %). The raw poses carry no smoothing, whose corner
+//! cutting differs between two paths sampled differently.
+//!
+//! With `u = p_b` mapped by the current similarity, one step solves for the
+//! small update `u' = e^σ R(ω) (u - c) + c + τ` (about the points' centroid
+//! `c`) that minimises `Σ |P⊥ (u' - q)|²`, `q` the nearest point of A and
+//! `P⊥ = I - t tᵀ` removing the component along A's tangent `t` there.
+
+use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector2, Vector3};
+
+use crate::geometry::{Plane, Polyline2, Similarity3};
+
+/// Points of B used (the range is strided to about this many).
+const MAX_POINTS: usize = 120;
+/// Gauss-Newton steps at most.
+const ITERATIONS: usize = 30;
+/// The steps stop once one moves no point by more than this fraction of
+/// the points' spread.
+const SETTLED: f64 = 1e-5;
+/// Fewest matched points for a polish.
+const MIN_POINTS: usize = 12;
+/// Cauchy width of the residual weights, times the median distance ...
+const WIDTH: f64 = 2.0;
+/// ... and at least this fraction of the points' spread.
+const FLOOR: f64 = 0.01;
+/// Levenberg-Marquardt damping, relative to the mean diagonal entry:
+/// directions the overlap barely constrains (along a straight) stay where
+/// they are.
+const DAMPING: f64 = 1e-3;
+/// Largest change the polish may make to the scale (factor) ...
+const MAX_SCALE_CHANGE: f64 = 1.3;
+/// ... and to the rotation (radians); more means it ran away.
+const MAX_ROTATION: f64 = 0.3;
+/// A's part searched reaches this fraction of its range's length beyond it.
+const MARGIN: f64 = 0.5;
+
+/// A path's raw poses with the index their nearest points are found by.
+pub struct RawPath {
+    points: Vec<Vector3<f64>>,
+    plane: Plane,
+    polyline: Polyline2,
+}
+
+impl RawPath {
+    /// Indexes the poses (in their best-fit plane, where they nearly lie).
+    pub fn new(points: &[Vector3<f64>]) -> Self {
+        let plane = Plane::fit(points);
+        let xy: Vec<Vector2<f64>> = points.iter().map(|p| plane.to_2d(p)).collect();
+        RawPath {
+            points: points.to_vec(),
+            plane,
+            polyline: Polyline2::new(&xy),
+        }
+    }
+
+    /// Nearest point of poses `[lo, hi]` to `p` and the unit tangent there.
+    fn nearest(&self, p: &Vector3<f64>, lo: f64, hi: f64) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        let last = self.points.len().checked_sub(1)? as f64;
+        let proj = self
+            .polyline
+            .project_within(&self.plane.to_2d(p), f64::INFINITY, |v| {
+                (lo..=hi).contains(&v)
+            })?;
+        // Beyond an end of A the nearest point is that end: no pair.
+        if proj.vertex <= 0.0 || proj.vertex >= last {
+            return None;
+        }
+        let i = (proj.vertex.floor() as usize).min(self.points.len() - 2);
+        let f = proj.vertex - i as f64;
+        let (a, b) = (self.points[i], self.points[i + 1]);
+        let tangent = (b - a).try_normalize(f64::EPSILON)?;
+        Some((a + f * (b - a), tangent))
+    }
+}
+
+/// The poses of A whose points B's may pair with: `a_range` and a margin
+/// around it, short of `exclude` (a loop's other part, which B's poses
+/// would otherwise find themselves in).
+pub fn search_window(a_range: [usize; 2], exclude: Option<[usize; 2]>) -> [f64; 2] {
+    let (a0, a1) = (
+        a_range[0].min(a_range[1]) as f64,
+        a_range[0].max(a_range[1]) as f64,
+    );
+    let margin = MARGIN * (a1 - a0);
+    let (mut lo, mut hi) = (a0 - margin, a1 + margin);
+    if let Some(e) = exclude {
+        let (e0, e1) = (e[0].min(e[1]) as f64, e[0].max(e[1]) as f64);
+        if e1 < a0 {
+            lo = lo.max(e1 + 1.0);
+        } else if e0 > a1 {
+            hi = hi.min(e0 - 1.0);
+        }
+    }
+    [lo, hi]
+}
+
+/// `a_T_b` refined on B's poses `b_range` against A's poses in `window`
+/// ([`search_window`]); `a_T_b` itself when the overlap gives too few
+/// pairs or the refinement runs away.
+#[allow(non_snake_case)]
+pub fn polish(
+    a: &RawPath,
+    window: [f64; 2],
+    b: &[Vector3<f64>],
+    b_range: [usize; 2],
+    a_T_b: &Similarity3,
+) -> Similarity3 {
+    let (b0, b1) = (b_range[0].min(b_range[1]), b_range[0].max(b_range[1]));
+    if b1 >= b.len() || a.points.len() < 2 {
+        return *a_T_b;
+    }
+    let stride = ((b1 - b0) / MAX_POINTS).max(1);
+    let sample: Vec<Vector3<f64>> = (b0..=b1).step_by(stride).map(|i| b[i]).collect();
+    let [lo, hi] = window;
+    let mut sim = *a_T_b;
+    for _ in 0..ITERATIONS {
+        let Some((step, moved)) = gauss_newton_step(a, &sample, &sim, lo, hi) else {
+            break;
+        };
+        sim = step.compose(&sim);
+        if moved < SETTLED {
+            break;
+        }
+    }
+    let scale_change = (sim.scale / a_T_b.scale).ln().abs();
+    let rotation_change = Similarity3 {
+        rotation: sim.rotation * a_T_b.rotation.transpose(),
+        ..Similarity3::identity()
+    }
+    .angle();
+    if scale_change <= MAX_SCALE_CHANGE.ln() && rotation_change <= MAX_ROTATION {
+        sim
+    } else {
+        *a_T_b
+    }
+}
+
+/// One damped Gauss-Newton step, as the similarity to apply after `sim`,
+/// and how far it moves a point at most, relative to the points' spread.
+fn gauss_newton_step(
+    a: &RawPath,
+    sample: &[Vector3<f64>],
+    sim: &Similarity3,
+    lo: f64,
+    hi: f64,
+) -> Option<(Similarity3, f64)> {
+    let mapped: Vec<Vector3<f64>> = sample.iter().map(|p| sim.apply(p)).collect();
+    let pairs: Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> = mapped
+        .iter()
+        .filter_map(|u| a.nearest(u, lo, hi).map(|(q, t)| (*u, q, t)))
+        .collect();
+    if pairs.len() < MIN_POINTS {
+        return None;
+    }
+    let c = pairs.iter().map(|(u, _, _)| *u).sum::<Vector3<f64>>() / pairs.len() as f64;
+    // Translation in units of the points' spread: a well-scaled system
+    // whatever the path's units.
+    let spread = (pairs
+        .iter()
+        .map(|(u, _, _)| (u - c).norm_squared())
+        .sum::<f64>()
+        / pairs.len() as f64)
+        .sqrt()
+        .max(f64::MIN_POSITIVE);
+    let mut dist: Vec<f64> = pairs
+        .iter()
+        .map(|(u, q, t)| perpendicular(u - q, t).norm())
+        .collect();
+    dist.sort_by(f64::total_cmp);
+    // Cauchy weights on a robust residual scale. Its floor keeps the few
+    // points that fix the scale (a corner's, off while the legs already
+    // fit) from counting as outliers when the rest fit exactly.
+    let width = (WIDTH * dist[dist.len() / 2]).max(FLOOR * spread);
+    let mut jtj = SMatrix::<f64, 7, 7>::zeros();
+    let mut jtr = SVector::<f64, 7>::zeros();
+    for (u, q, t) in &pairs {
+        let projector = Matrix3::identity() - t * t.transpose();
+        let d = u - c;
+        // Columns: rotation ω (ω × d), log-scale σ (d), translation τ·spread.
+        let mut j = SMatrix::<f64, 3, 7>::zeros();
+        j.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(projector * -d.cross_matrix()));
+        j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(projector * d));
+        j.fixed_view_mut::<3, 3>(0, 4)
+            .copy_from(&(projector * spread));
+        let r = projector * (u - q);
+        let w = 1.0 / (1.0 + (r.norm() / width).powi(2));
+        jtj += w * j.transpose() * j;
+        jtr += w * j.transpose() * r;
+    }
+    let damping = DAMPING * jtj.trace() / 7.0;
+    for k in 0..7 {
+        jtj[(k, k)] += damping;
+    }
+    let delta = jtj.cholesky()?.solve(&-jtr);
+    if !delta.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let omega = Vector3::new(delta[0], delta[1], delta[2]);
+    let scale = delta[3].exp();
+    let rotation = *Rotation3::new(omega).matrix();
+    let tau = Vector3::new(delta[4], delta[5], delta[6]) * spread;
+    // Each parameter moves a point at the spread by about its value.
+    let moved = delta.amax();
+    // u' = s R (u - c) + c + τ.
+    let step = Similarity3 {
+        scale,
+        rotation,
+        translation: c + tau - scale * (rotation * c),
+    };
+    Some((step, moved))
+}
+
+/// The part of `d` across the unit tangent `t`.
+fn perpendicular(d: Vector3<f64>, t: &Vector3<f64>) -> Vector3<f64> {
+    d - t * t.dot(&d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A straight, a 90° corner of radius 10, a straight: 0.5 units apart.
+    fn corner() -> Vec<Vector3<f64>> {
+        let mut p = Vec::new();
+        for i in 0..200 {
+            p.push(Vector3::new(-100.0 + 0.5 * i as f64, 0.0, 0.0));
+        }
+        for i in 0..32 {
+            let a = i as f64 / 31.0 * std::f64::consts::FRAC_PI_2;
+            p.push(Vector3::new(10.0 * a.sin(), 10.0 - 10.0 * a.cos(), 0.0));
+        }
+        for i in 1..200 {
+            p.push(Vector3::new(10.0, 10.0 + 0.5 * i as f64, 0.0));
+        }
+        p
+    }
+
+    /// The single-corner case the point-to-point refit left off: a start
+    /// 3 % off in scale and 2° off in rotation comes back to the truth.
+    #[test]
+    #[allow(non_snake_case)]
+    fn a_single_corner_fixes_the_scale() {
+        let a = corner();
+        let truth = Similarity3 {
+            scale: 2.0,
+            rotation: *Rotation3::from_euler_angles(0.4, 0.2, -1.0).matrix(),
+            translation: Vector3::new(3.0, -7.0, 11.0),
+        };
+        // B: A's corner and 80 units of each leg, in B's own frame.
+        let inv = truth.inverse();
+        let b: Vec<Vector3<f64>> = a[40..390].iter().map(|p| inv.apply(p)).collect();
+        let off = Similarity3 {
+            scale: 1.03,
+            rotation: *Rotation3::from_euler_angles(0.0, 0.0, 0.035).matrix(),
+            translation: Vector3::new(0.5, -0.3, 0.0),
+        }
+        .compose(&truth);
+        let raw = RawPath::new(&a);
+        let window = search_window([40, 389], None);
+        let a_T_b = polish(&raw, window, &b, [0, b.len() - 1], &off);
+        assert!((a_T_b.scale / truth.scale - 1.0).abs() < 1e-4, "{a_T_b:?}");
+        let err = b
+            .iter()
+            .map(|p| (a_T_b.apply(p) - truth.apply(p)).norm())
+            .fold(0.0, f64::max);
+        assert!(err < 0.05, "largest error {err}");
+    }
+
+    /// A straight leaves scale and sliding free: the polish must not wander.
+    #[test]
+    fn a_straight_stays_put() {
+        let a: Vec<Vector3<f64>> = (0..300).map(|i| Vector3::new(i as f64, 0.0, 0.0)).collect();
+        let b: Vec<Vector3<f64>> = a[100..200].to_vec();
+        let start = Similarity3::identity();
+        let raw = RawPath::new(&a);
+        let out = polish(&raw, search_window([100, 199], None), &b, [0, 99], &start);
+        assert!((out.scale - 1.0).abs() < 0.05, "{out:?}");
+        assert!(out.angle() < 0.05, "{out:?}");
+    }
+}
