@@ -82,24 +82,14 @@ impl RawPath {
 }
 
 /// The poses of A whose points B's may pair with: `a_range` and a margin
-/// around it, short of `exclude` (a loop's other part, which B's poses
-/// would otherwise find themselves in).
-pub fn search_window(a_range: [usize; 2], exclude: Option<[usize; 2]>) -> [f64; 2] {
+/// of half its length on each side.
+pub fn search_window(a_range: [usize; 2]) -> [f64; 2] {
     let (a0, a1) = (
         a_range[0].min(a_range[1]) as f64,
         a_range[0].max(a_range[1]) as f64,
     );
     let margin = MARGIN * (a1 - a0);
-    let (mut lo, mut hi) = (a0 - margin, a1 + margin);
-    if let Some(e) = exclude {
-        let (e0, e1) = (e[0].min(e[1]) as f64, e[0].max(e[1]) as f64);
-        if e1 < a0 {
-            lo = lo.max(e1 + 1.0);
-        } else if e0 > a1 {
-            hi = hi.min(e0 - 1.0);
-        }
-    }
-    [lo, hi]
+    [a0 - margin, a1 + margin]
 }
 
 /// `a_T_b` refined on B's poses `b_range` against A's poses in `window`
@@ -265,7 +255,7 @@ mod tests {
         }
         .compose(&truth);
         let raw = RawPath::new(&a);
-        let window = search_window([40, 389], None);
+        let window = search_window([40, 389]);
         let a_T_b = polish(&raw, window, &b, [0, b.len() - 1], &off);
         assert!((a_T_b.scale / truth.scale - 1.0).abs() < 1e-4, "{a_T_b:?}");
         let err = b
@@ -282,7 +272,7 @@ mod tests {
         let b: Vec<Vector3<f64>> = a[100..200].to_vec();
         let start = Similarity3::identity();
         let raw = RawPath::new(&a);
-        let out = polish(&raw, search_window([100, 199], None), &b, [0, 99], &start);
+        let out = polish(&raw, search_window([100, 199]), &b, [0, 99], &start);
         assert!((out.scale - 1.0).abs() < 0.05, "{out:?}");
         assert!(out.angle() < 0.05, "{out:?}");
     }
