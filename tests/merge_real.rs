@@ -17,11 +17,22 @@ fn cases(
     a: [usize; 2],
     b: [usize; 2],
 ) -> Vec<MergeCase> {
+    cases_of(seq, source, reversed, [a, b], "time")
+}
+
+/// [`cases`] of a kind of overlap (`"time"` or `"revisit"`).
+fn cases_of(
+    seq: &str,
+    source: Source,
+    reversed: bool,
+    windows: [[usize; 2]; 2],
+    kind: &'static str,
+) -> Vec<MergeCase> {
     let p = Prepared::new(load_sequence(Path::new("tests/data"), seq).expect("tests/data"));
     (1..=4)
         .map(|seed| {
             let mut rng = StdRng::seed_from_u64(seed);
-            window_case(&mut rng, &p, source, reversed, [a, b], "time", 200.0).expect("case")
+            window_case(&mut rng, &p, source, reversed, windows, kind, 200.0).expect("case")
         })
         .collect()
 }
@@ -112,21 +123,7 @@ fn a_gps_path_is_matched_against_the_dense_one_thinned() {
 #[test]
 fn a_path_climbing_out_of_its_plane_is_lifted_without_tilt() {
     for reversed in [false, true] {
-        let p = Prepared::new(
-            load_sequence(Path::new("tests/data"), "09_head700").expect("tests/data"),
-        );
-        for seed in 1..=4 {
-            let mut rng = StdRng::seed_from_u64(seed);
-            let case = window_case(
-                &mut rng,
-                &p,
-                Source::Gt,
-                reversed,
-                [[109, 699], [0, 410]],
-                "time",
-                200.0,
-            )
-            .expect("case");
+        for case in cases("09_head700", Source::Gt, reversed, [109, 699], [0, 410]) {
             assert!(case.oracle_correct);
             assert!(case.rank1_correct, "{case:?}");
             assert!(case.rot_err_deg.expect("correct") < 0.1, "{case:?}");
@@ -143,20 +140,9 @@ fn a_path_climbing_out_of_its_plane_is_lifted_without_tilt() {
 /// fixes the scale.
 #[test]
 fn a_single_corner_fixes_the_scale_once_points_slide_along_the_road() {
-    let p = Prepared::new(load_sequence(Path::new("tests/data"), "00").expect("tests/data"));
     for reversed in [false, true] {
-        for seed in 1..=4 {
-            let mut rng = StdRng::seed_from_u64(seed);
-            let case = window_case(
-                &mut rng,
-                &p,
-                Source::Gt,
-                reversed,
-                [[298, 1238], [3587, 4135]],
-                "revisit",
-                200.0,
-            )
-            .expect("case");
+        let windows = [[298, 1238], [3587, 4135]];
+        for case in cases_of("00", Source::Gt, reversed, windows, "revisit") {
             assert!(case.oracle_correct);
             assert!(case.rank1_correct, "{case:?}");
             assert!(case.scale_err_pct.expect("correct") < 1.0, "{case:?}");
