@@ -61,7 +61,8 @@ fn polished(
 /// [`match_prepared`], and when one path is sampled several times more
 /// densely than the other, the same again with the denser one thinned to
 /// the other's rate ([`resolution`]); the hypotheses of both ranked
-/// together, in the original pose indices.
+/// together, in the original pose indices, their similarities polished on
+/// the raw poses.
 pub fn match_across_rates(
     a: &Trajectory,
     b: &Trajectory,
@@ -69,24 +70,39 @@ pub fn match_across_rates(
     pb: &PreparedPath,
     config: &Config,
 ) -> Vec<Hypothesis> {
+    // Both paths at their own rates.
     let mut all = match_prepared(pa, pb, config);
+    // The denser one thinned to the other's rate, where they differ.
+    all.extend(match_thinned(a, b, pa, pb, config));
+    let ranked = rank::rank(all, config.top_k, config.min_score);
+    // The reported similarities, refined on the raw poses.
+    polished(&pa.positions, &pb.positions, ranked)
+}
+
+/// The hypotheses of the denser path thinned to the sparser one's rate,
+/// in the original pose indices (none when the rates are alike).
+fn match_thinned(
+    a: &Trajectory,
+    b: &Trajectory,
+    pa: &PreparedPath,
+    pb: &PreparedPath,
+    config: &Config,
+) -> Vec<Hypothesis> {
     let ratio = resolution::density_ratio(pa, pb);
     let Some(k) = resolution::thinning(ratio) else {
-        let ranked = rank::rank(all, config.top_k, config.min_score);
-        return polished(&pa.positions, &pb.positions, ranked);
+        return Vec::new();
     };
     let a_denser = ratio >= 1.0;
     let dense = if a_denser { a } else { b };
     let Ok(thin) = PreparedPath::new(&resolution::thinned(dense, k), config) else {
-        let ranked = rank::rank(all, config.top_k, config.min_score);
-        return polished(&pa.positions, &pb.positions, ranked);
+        return Vec::new();
     };
-    let coarse = match a_denser {
+    let mut coarse = match a_denser {
         true => match_prepared(&thin, pb, config),
         false => match_prepared(pa, &thin, config),
     };
     let at = |i: usize| resolution::unthinned(i, k, dense.len());
-    for mut h in coarse {
+    for h in &mut coarse {
         if a_denser {
             h.a_range = h.a_range.map(at);
             h.correspondences.iter_mut().for_each(|c| c.0 = at(c.0));
@@ -94,11 +110,8 @@ pub fn match_across_rates(
             h.b_range = h.b_range.map(at);
             h.correspondences.iter_mut().for_each(|c| c.1 = at(c.1));
         }
-        all.push(h);
     }
-    let ranked = rank::rank(all, config.top_k, config.min_score);
-    // The reported similarities, refined on the raw poses.
-    polished(&pa.positions, &pb.positions, ranked)
+    coarse
 }
 
 /// [`match_paths`] on prepared paths.
