@@ -31,13 +31,8 @@ pub fn refine_lift(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) 
     let Some(fit) = Similarity3::fit(&p_b, &p_a) else {
         return *a_T_b;
     };
-    let change = Similarity3 {
-        scale: 1.0,
-        rotation: fit.rotation * a_T_b.rotation.transpose(),
-        translation: Vector3::zeros(),
-    };
     let scale_change = (fit.scale / a_T_b.scale - 1.0).abs();
-    if change.angle() <= MAX_TILT && scale_change <= MAX_SCALE_CHANGE {
+    if fit.angle_to(a_T_b) <= MAX_TILT && scale_change <= MAX_SCALE_CHANGE {
         fit
     } else {
         *a_T_b

@@ -121,12 +121,7 @@ pub fn polish(
         }
     }
     let scale_change = (sim.scale / a_T_b.scale).ln().abs();
-    let rotation_change = Similarity3 {
-        rotation: sim.rotation * a_T_b.rotation.transpose(),
-        ..Similarity3::identity()
-    }
-    .angle();
-    if scale_change <= MAX_SCALE_CHANGE.ln() && rotation_change <= MAX_ROTATION {
+    if scale_change <= MAX_SCALE_CHANGE.ln() && sim.angle_to(a_T_b) <= MAX_ROTATION {
         sim
     } else {
         *a_T_b

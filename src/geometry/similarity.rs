@@ -184,6 +184,14 @@ impl Similarity3 {
         })
     }
 
+    /// Angle in radians of the rotation taking `other`'s to this one's,
+    /// `acos((tr(R Rₒᵀ) - 1) / 2)`.
+    pub fn angle_to(&self, other: &Similarity3) -> f64 {
+        (((self.rotation * other.rotation.transpose()).trace() - 1.0) / 2.0)
+            .clamp(-1.0, 1.0)
+            .acos()
+    }
+
     /// Rotation angle in radians (the geodesic distance to the identity).
     pub fn angle(&self) -> f64 {
         ((self.rotation.trace() - 1.0) / 2.0)

@@ -182,8 +182,8 @@ impl History {
                 bounds,
                 polyline,
                 poses,
-                // The online history is planar: heights are not kept.
-                heights: Vec::new(),
+                // The online history keeps no input positions: its
+                // windows are planar.
                 positions: Vec::new(),
             },
             grid0: g0,

@@ -27,9 +27,8 @@ pub struct PreparedPath {
     pub polyline: Polyline2,
     /// Number of poses in the input.
     pub poses: usize,
-    /// Height of each pose above the plane (the part the 2D stages drop).
-    pub heights: Vec<f64>,
-    /// The input positions (the reported similarities are polished on them).
+    /// The input positions: their heights above the plane (which the 2D
+    /// stages drop) lift overlaps to 3D, and `match` polishes on them.
     pub positions: Vec<Vector3<f64>>,
 }
 
@@ -66,7 +65,6 @@ impl PreparedPath {
         let signature = Signature::build(&track, &config.signature);
         let bounds = boundaries(&signature, &config.segments);
         let polyline = Polyline2::new(&track.xy);
-        let heights = positions.iter().map(|p| plane.local(p).z).collect();
         Ok(PreparedPath {
             plane,
             track,
@@ -74,7 +72,6 @@ impl PreparedPath {
             bounds,
             polyline,
             poses: n,
-            heights,
             positions,
         })
     }
@@ -83,8 +80,21 @@ impl PreparedPath {
     /// plane, at the height of the poses there.
     pub fn point3_at(&self, grid: f64) -> Vector3<f64> {
         let xy = self.track.point_at(grid);
-        let height = Track::interp(&self.heights, Track::interp(&self.track.pose, grid));
+        let height = self.height_at(Track::interp(&self.track.pose, grid));
         self.plane.origin + self.plane.world_R_plane * Vector3::new(xy.x, xy.y, height)
+    }
+
+    /// Height above the plane at a fractional pose index (0 without the
+    /// input positions, as in the online history's windows).
+    fn height_at(&self, pose: f64) -> f64 {
+        let n = self.positions.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let i = (pose.max(0.0).floor() as usize).min(n - 1);
+        let f = (pose - i as f64).clamp(0.0, 1.0);
+        let p = self.positions[i] + f * (self.positions[(i + 1).min(n - 1)] - self.positions[i]);
+        self.plane.local(&p).z
     }
 
     /// The track's points, mirrored (`y -> -y`) when asked: the path seen
