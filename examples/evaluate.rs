@@ -70,15 +70,23 @@ struct Args {
     #[arg(long, value_delimiter = ',', default_values_t = eval::data::SEQUENCES.map(String::from))]
     sequences: Vec<String>,
     /// Sources of B in the merge cases, comma-separated (`stereo`: S-PTAM
-    /// stereo VO of KITTI 00, not loop-closed).
-    #[arg(long, value_enum, value_delimiter = ',', default_values = ["gt", "mono", "gps"])]
+    /// stereo VO of KITTI 00, not loop-closed; default gt,mono,gps).
+    #[arg(long, value_enum, value_delimiter = ',')]
     sources: Vec<SourceArg>,
-    /// Sources of the loop runs, comma-separated.
-    #[arg(long, value_enum, value_delimiter = ',', default_values = ["gt", "mono", "drift"])]
+    /// Sources of the loop runs, comma-separated (default gt,mono,drift).
+    #[arg(long, value_enum, value_delimiter = ',')]
     loop_sources: Vec<SourceArg>,
     /// What to evaluate.
     #[arg(long, value_enum, default_value = "all")]
     what: WhatArg,
+}
+
+/// The sources asked for, or `default` when none were.
+fn or_default(asked: Vec<SourceArg>, default: &[Source]) -> Vec<Source> {
+    match asked.is_empty() {
+        true => default.to_vec(),
+        false => asked.into_iter().map(Source::from).collect(),
+    }
 }
 
 fn main() -> ExitCode {
@@ -93,8 +101,8 @@ fn main() -> ExitCode {
         drift_factor: args.drift_factor,
         drift_log_scale: args.drift_log_scale,
         sequences: args.sequences,
-        merge_sources: args.sources.into_iter().map(Source::from).collect(),
-        loop_sources: args.loop_sources.into_iter().map(Source::from).collect(),
+        merge_sources: or_default(args.sources, &eval::MERGE_SOURCES),
+        loop_sources: or_default(args.loop_sources, &eval::LOOP_SOURCES),
         what: match args.what {
             WhatArg::Merge => What::Merge,
             WhatArg::Loops => What::Loops,

@@ -25,6 +25,11 @@ use crate::Result;
 use data::{load_sequence, resolve_data_dir, Sequence, SEQUENCES};
 pub use report::Report;
 
+/// Sources of B in the merge cases unless asked otherwise.
+pub const MERGE_SOURCES: [Source; 3] = [Source::Gt, Source::Mono, Source::Gps];
+/// Sources of the loop runs unless asked otherwise.
+pub const LOOP_SOURCES: [Source; 3] = [Source::Gt, Source::Mono, Source::Drift];
+
 /// Ground-truth revisits: within this distance (m) ...
 pub const REVISIT_RADIUS_M: f64 = 8.0;
 /// ... of a pose at least this many frames earlier.
@@ -153,8 +158,8 @@ impl Default for Options {
             drift_factor: 1.0,
             drift_log_scale: None,
             sequences: SEQUENCES.iter().map(|s| s.to_string()).collect(),
-            merge_sources: vec![Source::Gt, Source::Mono, Source::Gps],
-            loop_sources: vec![Source::Gt, Source::Mono, Source::Drift],
+            merge_sources: MERGE_SOURCES.to_vec(),
+            loop_sources: LOOP_SOURCES.to_vec(),
         }
     }
 }

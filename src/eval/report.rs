@@ -165,7 +165,6 @@ impl Report {
         let all: Vec<&MergeCase> = cases.iter().collect();
         let mut rows = vec![merge_row("all", &all)];
         let mut sources: Vec<Source> = all.iter().map(|c| c.source).collect();
-        sources.extend([Source::Gt, Source::Mono, Source::Gps]);
         sources.sort();
         sources.dedup();
         for s in sources {

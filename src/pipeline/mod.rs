@@ -114,7 +114,9 @@ fn match_thinned(
     coarse
 }
 
-/// [`match_paths`] on prepared paths.
+/// The hypotheses of prepared paths at their own rates, ranked, their
+/// similarities as grown and lifted ([`match_across_rates`] adds the
+/// thinned match and the polish).
 pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> Vec<Hypothesis> {
     if pa.signature.len() < 3 || pb.signature.len() < 3 {
         return Vec::new();
