@@ -74,7 +74,7 @@ pub fn verify(
     // grown overlap knows the scale, and so a common one.
     let negate = overlap.reversed != cand.orientation.mirrored;
     let zncc = cand.zncc.max(overlap_zncc(target, query, &overlap, negate));
-    Some(finish(target, query, overlap, cand.clone(), zncc))
+    finish(target, query, overlap, cand.clone(), zncc)
 }
 
 /// The RANSAC similarity (query -> target) of a candidate's seed samples,
@@ -178,17 +178,31 @@ pub fn verify_seeded(
         zncc,
         strength: 0.0,
     };
-    Some(finish(target, query, overlap, cand, zncc))
+    finish(target, query, overlap, cand, zncc)
 }
 
-/// The evidence of a grown overlap.
+/// Each side of an overlap spans at least this many of its own path's
+/// smoothing bandwidths: below that the smoothed path holds no shape, and a
+/// stretch where one path stands still matches the other's at a scale near
+/// zero (TUM fr2/desk: a hand-held camera held still for a moment matched a
+/// 0.3 m stretch of the same path at scale 0.0005).
+const MIN_SIDE_BANDWIDTHS: f64 = 2.0;
+
+/// The evidence of a grown overlap; `None` when a side is too short to
+/// hold a shape.
 fn finish(
     target: &PreparedPath,
     query: &PreparedPath,
     overlap: Overlap,
     candidate: Candidate,
     zncc: f64,
-) -> Verified {
+) -> Option<Verified> {
+    if overlap.target_length < MIN_SIDE_BANDWIDTHS * target.track.bandwidth
+        // (`query_length` is in the target's units, through the scale.)
+        || overlap.query_length < MIN_SIDE_BANDWIDTHS * query.track.bandwidth * overlap.a_T_b.scale
+    {
+        return None;
+    }
     let length = overlap.target_length.max(overlap.query_length);
     let query_fraction =
         overlap.query_length / (overlap.a_T_b.scale * query.track.length()).max(f64::MIN_POSITIVE);
@@ -204,11 +218,11 @@ fn finish(
         length_ratio: overlap.target_length / overlap.query_length,
         coverage: query_fraction.max(target_fraction).clamp(0.0, 1.0),
     };
-    Verified {
+    Some(Verified {
         overlap,
         candidate,
         evidence,
-    }
+    })
 }
 
 /// ZNCC of the two paths' curvature over the grown overlap, sampled at

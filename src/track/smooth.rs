@@ -28,6 +28,19 @@ const SPARSE_TURN: f64 = 0.25;
 const SPARSE_QUANTILE: f64 = 0.95;
 /// The kernel is cut at this many bandwidths.
 const CUTOFF: f64 = 3.0;
+/// Mean turning per kept pose (radians) above which a path may be sampled
+/// below its wobble: vehicles turn 0.4-0.8° per pose at 10 Hz, sparse GPS
+/// 5-7° (its turning does not fall with the bandwidth), a hand-held camera's
+/// motion capture at 300 Hz 10° (TUM fr2/desk).
+const WOBBLE_TURN_PER_POSE: f64 = 3.0 * std::f64::consts::PI / 180.0;
+/// Total turning falling faster than this power of the bandwidth (per
+/// doubling, halving at 1) is wobble, not turns: white position noise gives
+/// 1.5, a rounded corner 0.
+const WOBBLE_SLOPE: f64 = 0.5;
+/// The widest bandwidth the wobble test may reach, in pose spacings.
+const WOBBLE_MAX_STEPS: f64 = 64.0;
+/// ... and the fewest bandwidths the path must still span.
+const WOBBLE_MIN_BANDWIDTHS: f64 = 16.0;
 
 /// A Gaussian kernel smoother of a given bandwidth (units of `u`).
 #[derive(Debug, Clone, Copy)]
@@ -38,7 +51,8 @@ pub struct Smoother {
 
 impl Smoother {
     /// The bandwidth among `BANDWIDTH_STEPS` (and `SPARSE_STEP` for a
-    /// sparse path) with the lowest GCV score.
+    /// sparse path) with the lowest GCV score, doubled while the path's
+    /// total turning falls like wobble's (`WOBBLE_*`).
     pub fn choose(chord: &ChordParam) -> Smoother {
         let sparse = is_sparse(&chord.points);
         let steps = sparse
@@ -55,9 +69,55 @@ impl Smoother {
                 best = (g, k);
             }
         }
-        Smoother {
-            bandwidth: best.1 * chord.typical_step,
+        // GCV keeps the bandwidth where the poses are precise, even when
+        // they follow a hand's tremor or a drone's hover rather than a path:
+        // such a path turns several degrees per pose and its turning falls
+        // steeply with the bandwidth, which no real turn does (a corner
+        // rounded by a wider kernel turns as much). Widen while it falls.
+        let mut k = best.1;
+        let gcv = Smoother {
+            bandwidth: k * chord.typical_step,
+        };
+        let mut turning = gcv.turning(chord);
+        let widest = (chord.points.len() as f64 / WOBBLE_MIN_BANDWIDTHS).min(WOBBLE_MAX_STEPS);
+        if turning > WOBBLE_TURN_PER_POSE * chord.points.len() as f64 {
+            while 2.0 * k <= widest {
+                let wider = Smoother {
+                    bandwidth: 2.0 * k * chord.typical_step,
+                }
+                .turning(chord);
+                if !(wider > 0.0 && (turning / wider).log2() >= WOBBLE_SLOPE) {
+                    break;
+                }
+                k *= 2.0;
+                turning = wider;
+            }
         }
+        Smoother {
+            bandwidth: k * chord.typical_step,
+        }
+    }
+
+    /// Total turning (radians) of the smoothed path through the kept poses.
+    fn turning(&self, chord: &ChordParam) -> f64 {
+        let mut lo = 0;
+        let mut prev: Option<Vector2<f64>> = None;
+        let mut last = None;
+        let mut total = 0.0;
+        for &u in &chord.u {
+            let (p, _) = self.at(chord, u, &mut lo);
+            if let Some(q) = last {
+                let d: Vector2<f64> = p - q;
+                if d.norm_squared() > 0.0 {
+                    if let Some(e) = prev {
+                        total += e.perp(&d).atan2(e.dot(&d)).abs();
+                    }
+                    prev = Some(d);
+                }
+            }
+            last = Some(p);
+        }
+        total
     }
 
     /// GCV score `n RSS / (n - tr H)^2` at the kept poses.
@@ -155,4 +215,36 @@ fn is_sparse(points: &[Vector2<f64>]) -> bool {
     let k = ((turns.len() - 1) as f64 * SPARSE_QUANTILE).round() as usize;
     let (_, q, _) = turns.select_nth_unstable_by(k, f64::total_cmp);
     *q > SPARSE_TURN
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Twice round a circle, 2 000 poses a lap, with a tremor across the
+    /// path of `amplitude` (fraction of the radius) and a wavelength of a
+    /// few pose spacings, like a hand-held camera under motion capture.
+    fn circle_with_tremor(amplitude: f64) -> ChordParam {
+        let points: Vec<Vector2<f64>> = (0..4000)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 2000.0;
+                let r = 1.0 + amplitude * ((i as f64 * 1.1).sin() + 0.7 * (i as f64 * 2.3).cos());
+                Vector2::new(r * a.cos(), r * a.sin())
+            })
+            .collect();
+        ChordParam::new(&points).expect("moves")
+    }
+
+    #[test]
+    fn tremor_is_smoothed_away_and_a_clean_turn_is_not() {
+        let shaky = circle_with_tremor(0.002);
+        let k = Smoother::choose(&shaky).bandwidth / shaky.typical_step;
+        assert!(k >= 4.0, "{k} spacings");
+        // What is left turns like the circle: twice 360°, within 10 %.
+        let turning = Smoother::choose(&shaky).turning(&shaky).to_degrees();
+        assert!((turning / 720.0 - 1.0).abs() < 0.1, "{turning}°");
+        let clean = circle_with_tremor(0.0);
+        let k = Smoother::choose(&clean).bandwidth / clean.typical_step;
+        assert!(k <= BANDWIDTH_STEPS[1], "{k} spacings");
+    }
 }
