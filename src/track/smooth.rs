@@ -59,14 +59,15 @@ impl Smoother {
             .then_some(SPARSE_STEP)
             .into_iter()
             .chain(BANDWIDTH_STEPS);
-        let mut best = (f64::INFINITY, BANDWIDTH_STEPS[0]);
+        // (GCV score, steps, fitted points)
+        let mut best = (f64::INFINITY, BANDWIDTH_STEPS[0], Vec::new());
         for k in steps {
             let sm = Smoother {
                 bandwidth: k * chord.typical_step,
             };
-            let g = sm.gcv(chord);
+            let (g, fits) = sm.gcv_and_fits(chord);
             if g < best.0 {
-                best = (g, k);
+                best = (g, k, fits);
             }
         }
         // GCV keeps the bandwidth where the poses are precise, even when
@@ -75,10 +76,7 @@ impl Smoother {
         // steeply with the bandwidth, which no real turn does (a corner
         // rounded by a wider kernel turns as much). Widen while it falls.
         let mut k = best.1;
-        let gcv = Smoother {
-            bandwidth: k * chord.typical_step,
-        };
-        let mut turning = gcv.turning(chord);
+        let mut turning = turning_of(&best.2);
         let widest = (chord.points.len() as f64 / WOBBLE_MIN_BANDWIDTHS).min(WOBBLE_MAX_STEPS);
         if turning > WOBBLE_TURN_PER_POSE * chord.points.len() as f64 {
             while 2.0 * k <= widest {
@@ -100,41 +98,31 @@ impl Smoother {
 
     /// Total turning (radians) of the smoothed path through the kept poses.
     fn turning(&self, chord: &ChordParam) -> f64 {
-        let mut lo = 0;
-        let mut prev: Option<Vector2<f64>> = None;
-        let mut last = None;
-        let mut total = 0.0;
-        for &u in &chord.u {
-            let (p, _) = self.at(chord, u, &mut lo);
-            if let Some(q) = last {
-                let d: Vector2<f64> = p - q;
-                if d.norm_squared() > 0.0 {
-                    if let Some(e) = prev {
-                        total += e.perp(&d).atan2(e.dot(&d)).abs();
-                    }
-                    prev = Some(d);
-                }
-            }
-            last = Some(p);
-        }
-        total
+        turning_of(&self.gcv_and_fits(chord).1)
     }
 
     /// GCV score `n RSS / (n - tr H)^2` at the kept poses.
     pub fn gcv(&self, chord: &ChordParam) -> f64 {
+        self.gcv_and_fits(chord).0
+    }
+
+    /// [`Smoother::gcv`] and the smoothed points at the kept poses.
+    fn gcv_and_fits(&self, chord: &ChordParam) -> (f64, Vec<Vector2<f64>>) {
         let n = chord.points.len();
         let (mut rss, mut trace) = (0.0, 0.0);
         let mut lo = 0;
+        let mut fits = Vec::with_capacity(n);
         for i in 0..n {
             let (fit, self_weight) = self.at(chord, chord.u[i], &mut lo);
             rss += (fit - chord.points[i]).norm_squared();
             trace += self_weight;
+            fits.push(fit);
         }
         let dof = n as f64 - trace;
         if dof <= 1.0 {
-            return f64::INFINITY;
+            return (f64::INFINITY, fits);
         }
-        n as f64 * rss / (dof * dof)
+        (n as f64 * rss / (dof * dof), fits)
     }
 
     /// Smoothed position at `u` and the normalised weight of the nearest
@@ -196,6 +184,23 @@ impl Smoother {
         }
         (w_sum > 0.0).then(|| (acc / w_sum, w_self / w_sum))
     }
+}
+
+/// Total turning (radians) of a polyline: the sum of the absolute angles
+/// between consecutive non-zero steps.
+fn turning_of(points: &[Vector2<f64>]) -> f64 {
+    let mut prev: Option<Vector2<f64>> = None;
+    let mut total = 0.0;
+    for w in points.windows(2) {
+        let d = w[1] - w[0];
+        if d.norm_squared() > 0.0 {
+            if let Some(e) = prev {
+                total += e.perp(&d).atan2(e.dot(&d)).abs();
+            }
+            prev = Some(d);
+        }
+    }
+    total
 }
 
 /// True when the path turns more than [`SPARSE_TURN`] between consecutive
