@@ -294,3 +294,35 @@ fn stream_no_drift_probe_flag_keeps_the_json_lines_contract() {
         candidates.len()
     );
 }
+
+/// `turnprint loops A | head -5` panicked ("failed printing to stdout:
+/// Broken pipe") when head exited before the table was written, and
+/// `stream` ended with an error line and status 1. A reader that stops
+/// reading is no error: each command now stops quietly, status 0.
+#[test]
+fn a_reader_closing_stdout_early_is_no_panic_and_no_error() {
+    for args in [
+        vec!["loops", "tests/data/00.txt"],
+        vec!["loops", "tests/data/00.txt", "--json"],
+        vec![
+            "match",
+            "tests/data/00.txt",
+            "tests/data/KittiGps_converted.txt",
+        ],
+        vec!["stream", "tests/data/00.txt", "--json"],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_turnprint"))
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("turnprint runs");
+        // Closed before anything is written: every write fails with EPIPE.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("turnprint ends");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(out.status.success(), "{args:?}: {:?} {stderr}", out.status);
+        assert!(stderr.trim().is_empty(), "{args:?}: {stderr}");
+    }
+}

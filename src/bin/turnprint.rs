@@ -181,10 +181,54 @@ fn main() -> ExitCode {
         }
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
+        Ok(()) | Err(Failure::StdoutClosed) => ExitCode::SUCCESS,
+        Err(Failure::Message(message)) => {
             eprintln!("turnprint: {message}");
             ExitCode::FAILURE
+        }
+    }
+}
+
+/// Why a command stopped.
+enum Failure {
+    /// One clear line for stderr.
+    Message(String),
+    /// The reader of stdout stopped reading (`| head`): what it read is
+    /// complete, so this is no error (and never a panic).
+    StdoutClosed,
+}
+
+impl From<String> for Failure {
+    fn from(message: String) -> Self {
+        Failure::Message(message)
+    }
+}
+
+impl From<&str> for Failure {
+    fn from(message: &str) -> Self {
+        Failure::Message(message.to_string())
+    }
+}
+
+impl From<std::io::Error> for Failure {
+    /// A failed write to stdout.
+    fn from(e: std::io::Error) -> Self {
+        match e.kind() {
+            std::io::ErrorKind::BrokenPipe => Failure::StdoutClosed,
+            _ => Failure::Message(format!("<stdout>: {e}")),
+        }
+    }
+}
+
+impl From<turnprint::Error> for Failure {
+    fn from(e: turnprint::Error) -> Self {
+        match e {
+            turnprint::Error::Io { source, .. }
+                if source.kind() == std::io::ErrorKind::BrokenPipe =>
+            {
+                Failure::StdoutClosed
+            }
+            e => Failure::Message(e.to_string()),
         }
     }
 }
@@ -252,7 +296,7 @@ fn run_match(
     top: usize,
     fa: Format,
     fb: Format,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     let config = Config {
         top_k: top,
         ..Config::for_matching()
@@ -266,15 +310,15 @@ fn run_match(
         });
         print_json(&out)
     } else {
-        println!(
+        writeln!(
+            std::io::stdout(),
             "A: {} ({} poses)   B: {} ({} poses)",
             a.display(),
             ta.len(),
             b.display(),
             tb.len()
-        );
-        print_table(&hypotheses, "A range", "B range");
-        Ok(())
+        )?;
+        print_table(&hypotheses, "A range", "B range")
     }
 }
 
@@ -285,7 +329,7 @@ fn run_loops(
     fa: Format,
     no_prior: bool,
     min_score: f64,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     let progress = Progress::new();
     progress.stage("reading");
     let ta = read(a, fa)?;
@@ -318,9 +362,8 @@ fn run_loops(
         let out = json!({"path": a.display().to_string(), "poses": ta.len(), "loops": entries});
         print_json(&out)
     } else {
-        println!("{} ({} poses)", a.display(), ta.len());
-        print_table(&loops, "query", "match");
-        Ok(())
+        writeln!(std::io::stdout(), "{} ({} poses)", a.display(), ta.len())?;
+        print_table(&loops, "query", "match")
     }
 }
 
@@ -331,7 +374,7 @@ fn run_merge(
     plot: Option<&Path>,
     fa: Format,
     fb: Format,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     let (ta, tb, hypotheses) = match_files(a, b, fa, fb, &Config::for_matching())?;
     let best = hypotheses.first().ok_or_else(|| {
         format!(
@@ -360,23 +403,27 @@ fn run_merge(
     Ok(())
 }
 
-fn print_json(value: &serde_json::Value) -> Result<(), String> {
+fn print_json(value: &serde_json::Value) -> Result<(), Failure> {
     let mut out = std::io::stdout().lock();
-    serde_json::to_writer(&mut out, value).map_err(|e| e.to_string())?;
-    writeln!(out).map_err(|e| e.to_string())
+    serde_json::to_writer(&mut out, value).map_err(std::io::Error::from)?;
+    writeln!(out)?;
+    Ok(())
 }
 
-fn print_table(hypotheses: &[Hypothesis], a_name: &str, b_name: &str) {
+fn print_table(hypotheses: &[Hypothesis], a_name: &str, b_name: &str) -> Result<(), Failure> {
+    let mut out = std::io::stdout().lock();
     if hypotheses.is_empty() {
-        println!("no overlap found");
-        return;
+        writeln!(out, "no overlap found")?;
+        return Ok(());
     }
-    println!(
+    writeln!(
+        out,
         "{:>4} {:>6} {:>6} {:>4} {:>15} {:>15} {:>10} {:>7} {:>9} {:>7}",
         "rank", "score", "zncc", "rev", a_name, b_name, "scale", "rot°", "rmse", "turn°"
-    );
+    )?;
     for h in hypotheses {
-        println!(
+        writeln!(
+            out,
             "{:>4} {:>6.3} {:>6.2} {:>4} {:>15} {:>15} {:>10.4} {:>7.1} {:>9.3} {:>7.0}",
             h.rank,
             h.score,
@@ -388,17 +435,18 @@ fn print_table(hypotheses: &[Hypothesis], a_name: &str, b_name: &str) {
             h.rotation_angle().to_degrees(),
             h.rmse,
             h.turning.to_degrees()
-        );
+        )?;
     }
+    Ok(())
 }
 
 fn run_stream(
     a: &Path,
     config: &turnprint::online::OnlineConfig,
     format: Format,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     let mut out = std::io::stdout().lock();
-    turnprint::online::cli::stream(a, format, config, &mut out).map_err(|e| e.to_string())?;
+    turnprint::online::cli::stream(a, format, config, &mut out)?;
     Ok(())
 }
 
@@ -411,7 +459,7 @@ fn run_stream_verified(
     cameras: &str,
     plot: Option<PathBuf>,
     json: bool,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     use turnprint::sidecar::{stream_verified, CameraKind, VerifyOptions};
     let cameras = cameras
         .split(',')
@@ -426,7 +474,7 @@ fn run_stream_verified(
     let mut stdout = std::io::stdout().lock();
     let mut human = HumanLines(&mut stdout, Vec::new());
     let out: &mut dyn Write = if json { &mut stdout_json() } else { &mut human };
-    stream_verified(a, format, config, &options, out).map_err(|e| e.to_string())?;
+    stream_verified(a, format, config, &options, out)?;
     Ok(())
 }
 
@@ -488,6 +536,6 @@ fn run_stream_verified(
     _: &str,
     _: Option<PathBuf>,
     _: bool,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     Err("--verify needs the verifier: build with --features verifier".into())
 }
