@@ -4,6 +4,8 @@
 
 use std::path::Path;
 
+use nalgebra::{Rotation3, Unit, Vector3};
+use proptest::prelude::*;
 use turnprint::geometry::Similarity3;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::pipeline::prepare::PreparedPath;
@@ -104,5 +106,47 @@ fn a_camera_held_still_is_no_loop_at_scale_zero() {
     assert!(!loops.is_empty());
     for l in &loops {
         assert!((0.1..10.0).contains(&l.scale), "{l:?}");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, .. ProptestConfig::default() })]
+
+    /// A third of the hand-held path, under any similarity, matched against
+    /// the whole. The part's best-fit plane is not the whole's (the camera
+    /// rose and fell and tilted), so the planes' lift was 22-43° off and
+    /// both 3D refinements (`align::lift`, `align::polish`) refused to move
+    /// that far: 6 of 8 draws came back with the scale 1-19 % and the
+    /// rotation 23-43° off. They now move when they bring the points
+    /// four times closer.
+    #[test]
+    fn a_part_of_a_path_that_leaves_every_plane_is_placed_in_3d(
+        start in 0.1f64..0.6,
+        log_s in -2.0f64..2.0,
+        axis in prop::array::uniform3(-1.0f64..1.0),
+        angle in 0.0f64..std::f64::consts::TAU,
+        reversed in any::<bool>(),
+    ) {
+        let gt = read("fr2_desk_groundtruth.txt");
+        let n = gt.poses.len();
+        let first = (start * n as f64) as usize;
+        let axis = Unit::try_new(Vector3::from(axis), 1e-6).unwrap_or(Vector3::z_axis());
+        let (s, r) = (10f64.powf(log_s), Rotation3::from_axis_angle(&axis, angle));
+        let mut part: Vec<Vector3<f64>> = gt.poses[first..first + n * 3 / 10]
+            .iter()
+            .map(|p| s * (r * p.position) + Vector3::new(3.0, -1.0, 2.0) * s)
+            .collect();
+        if reversed {
+            part.reverse();
+        }
+        let b = Trajectory::from_positions("part", &part);
+        let hypotheses = match_paths(&gt, &b, &Config::for_matching()).expect("match");
+        let h = hypotheses.first().expect("a hypothesis");
+        let scale_err = (h.scale * s - 1.0).abs();
+        let r_err = ((h.rotation * r.matrix()).trace() - 1.0) / 2.0;
+        let angle_err = r_err.clamp(-1.0, 1.0).acos().to_degrees();
+        prop_assert!(scale_err < 0.005, "scale error {:.3} %", 100.0 * scale_err);
+        prop_assert!(angle_err < 0.5, "rotation error {angle_err:.2} deg");
+        prop_assert_eq!(h.reversed, reversed);
     }
 }

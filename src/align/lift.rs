@@ -14,14 +14,21 @@ use crate::geometry::Similarity3;
 const MIN_SPREAD_RATIO: f64 = 0.05;
 /// Largest rotation (radians) the 3D fit may add to the lift: tilts between
 /// a path's plane and its road are a few degrees, more means the fit is
-/// misled (noisy heights, a near-degenerate spread).
+/// misled (noisy heights, a near-degenerate spread), unless it is much
+/// closer ([`LIFT_MISFIT`]).
 const MAX_TILT: f64 = 0.15;
 /// Largest relative scale change the 3D fit may make to the lift.
 const MAX_SCALE_CHANGE: f64 = 0.05;
+/// Beyond those limits the fit is still taken when it brings the
+/// correspondences this many times closer (median) than the lift: a path
+/// that leaves any plane (a drone, a hand-held camera) has no plane that
+/// the part and the whole share, and the lift is off by tens of degrees.
+const LIFT_MISFIT: f64 = 4.0;
 
 /// Refines the lifted similarity `a_T_b` by the least-squares 3D fit of
 /// corresponding points (`p_a ~ a_T_b p_b`), when they span enough to fix a
-/// rotation and the fit stays near the lift; otherwise returns the lift.
+/// rotation and the fit stays near the lift or brings the points much
+/// closer; otherwise returns the lift.
 #[allow(non_snake_case)]
 pub fn refine_lift(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) -> Similarity3 {
     let (p_a, p_b): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = pairs.iter().copied().unzip();
@@ -32,11 +39,23 @@ pub fn refine_lift(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) 
         return *a_T_b;
     };
     let scale_change = (fit.scale / a_T_b.scale - 1.0).abs();
-    if fit.angle_to(a_T_b) <= MAX_TILT && scale_change <= MAX_SCALE_CHANGE {
+    let near = fit.angle_to(a_T_b) <= MAX_TILT && scale_change <= MAX_SCALE_CHANGE;
+    if near || LIFT_MISFIT * median_residual(&fit, pairs) < median_residual(a_T_b, pairs) {
         fit
     } else {
         *a_T_b
     }
+}
+
+/// Median distance between `p_a` and `a_T_b p_b` over the pairs.
+#[allow(non_snake_case)]
+fn median_residual(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) -> f64 {
+    let mut d: Vec<f64> = pairs
+        .iter()
+        .map(|(p_a, p_b)| (p_a - a_T_b.apply(p_b)).norm())
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// Whether the points spread in two directions, not along one line.
@@ -83,6 +102,32 @@ mod tests {
         let refined = refine_lift(&lifted, &pairs);
         assert!((refined.rotation - truth.rotation).norm() < 1e-9);
         assert!((refined.scale - truth.scale).abs() < 1e-9);
+    }
+
+    /// A path that leaves every plane (a drone, a hand-held camera): the
+    /// lift may be off by tens of degrees, and the fit, four times closer,
+    /// replaces it.
+    #[test]
+    #[allow(non_snake_case)]
+    fn a_lift_far_off_is_replaced_when_the_fit_is_much_closer() {
+        let truth = Similarity3 {
+            scale: 0.5,
+            rotation: *Rotation3::from_euler_angles(-0.4, 0.7, 2.0).matrix(),
+            translation: Vector3::new(1.0, 2.0, -3.0),
+        };
+        let p_b: Vec<Vector3<f64>> = (0..200)
+            .map(|i| {
+                let t = i as f64 / 199.0 * 4.0 * std::f64::consts::PI;
+                Vector3::new(2.0 * t.cos(), 2.0 * t.sin(), (1.5 * t).sin())
+            })
+            .collect();
+        let pairs: Vec<_> = p_b.iter().map(|p| (truth.apply(p), *p)).collect();
+        let lifted = Similarity3 {
+            rotation: Rotation3::from_euler_angles(0.5, 0.0, 0.2).matrix() * truth.rotation,
+            ..truth
+        };
+        let refined = refine_lift(&lifted, &pairs);
+        assert!((refined.rotation - truth.rotation).norm() < 1e-9);
     }
 
     /// A straight road leaves its roll free: the lift is kept.

@@ -37,8 +37,13 @@ const FLOOR: f64 = 0.01;
 const DAMPING: f64 = 1e-3;
 /// Largest change the polish may make to the scale (factor) ...
 const MAX_SCALE_CHANGE: f64 = 1.3;
-/// ... and to the rotation (radians); more means it ran away.
+/// ... and to the rotation (radians); more means it ran away, unless it
+/// brought the points much closer ([`RUNAWAY_UNLESS_CLOSER`]).
 const MAX_ROTATION: f64 = 0.3;
+/// Beyond those limits the polish is still taken when it brings B's points
+/// this many times closer (median) to A: the lift of a path that leaves
+/// any plane can be off by tens of degrees (`align::lift`).
+const RUNAWAY_UNLESS_CLOSER: f64 = 4.0;
 /// A's part searched reaches this fraction of its range's length beyond it.
 const MARGIN: f64 = 0.5;
 
@@ -94,7 +99,7 @@ pub fn search_window(a_range: [usize; 2]) -> [f64; 2] {
 
 /// `a_T_b` refined on B's poses `b_range` against A's poses in `window`
 /// ([`search_window`]); `a_T_b` itself when the overlap gives too few
-/// pairs or the refinement runs away.
+/// pairs or the refinement runs away without bringing the points closer.
 #[allow(non_snake_case)]
 pub fn polish(
     a: &RawPath,
@@ -121,11 +126,41 @@ pub fn polish(
         }
     }
     let scale_change = (sim.scale / a_T_b.scale).ln().abs();
-    if scale_change <= MAX_SCALE_CHANGE.ln() && sim.angle_to(a_T_b) <= MAX_ROTATION {
+    let near = scale_change <= MAX_SCALE_CHANGE.ln() && sim.angle_to(a_T_b) <= MAX_ROTATION;
+    let closer = || {
+        let before = median_distance(a, &sample, a_T_b, lo, hi);
+        let after = median_distance(a, &sample, &sim, lo, hi);
+        matches!((before, after), (Some(x), Some(y)) if RUNAWAY_UNLESS_CLOSER * y < x)
+    };
+    if near || closer() {
         sim
     } else {
         *a_T_b
     }
+}
+
+/// Median distance from the mapped points to their nearest points of A,
+/// `None` when fewer than [`MIN_POINTS`] pair.
+#[allow(non_snake_case)]
+fn median_distance(
+    a: &RawPath,
+    sample: &[Vector3<f64>],
+    a_T_b: &Similarity3,
+    lo: f64,
+    hi: f64,
+) -> Option<f64> {
+    let mut d: Vec<f64> = sample
+        .iter()
+        .filter_map(|p| {
+            let u = a_T_b.apply(p);
+            a.nearest(&u, lo, hi).map(|(q, _)| (u - q).norm())
+        })
+        .collect();
+    if d.len() < MIN_POINTS {
+        return None;
+    }
+    d.sort_by(f64::total_cmp);
+    Some(d[d.len() / 2])
 }
 
 /// One damped Gauss-Newton step, as the similarity to apply after `sim`,
