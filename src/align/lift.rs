@@ -6,6 +6,7 @@
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
+use super::{MAX_SCALE_FACTOR, MUCH_CLOSER};
 use crate::geometry::Similarity3;
 
 /// Thinnest spread across the correspondences (square root of the ratio of
@@ -15,18 +16,11 @@ const MIN_SPREAD_RATIO: f64 = 0.05;
 /// Largest rotation (radians) the 3D fit may add to the lift: tilts between
 /// a path's plane and its road are a few degrees, more means the fit is
 /// misled (noisy heights, a near-degenerate spread), unless it is much
-/// closer ([`LIFT_MISFIT`]).
+/// closer (`align::MUCH_CLOSER`; the lift of a 30 % part of TUM fr2/desk
+/// was 22-43° and 1-19 % in scale off).
 const MAX_TILT: f64 = 0.15;
 /// Largest relative scale change the 3D fit may make to the lift.
 const MAX_SCALE_CHANGE: f64 = 0.05;
-/// Beyond those limits the fit is still taken when it brings the
-/// correspondences this many times closer (median) than the lift: a path
-/// that leaves any plane (a drone, a hand-held camera) has no plane that
-/// the part and the whole share, and the lift is off by tens of degrees.
-const LIFT_MISFIT: f64 = 4.0;
-/// ... as long as it changes the scale by less than this factor (the lift
-/// of a 30 % part of TUM fr2/desk was 1-19 % off in scale).
-const MISFIT_MAX_SCALE_CHANGE: f64 = 1.3;
 
 /// Refines the lifted similarity `a_T_b` by the least-squares 3D fit of
 /// corresponding points (`p_a ~ a_T_b p_b`), when they span enough to fix a
@@ -43,10 +37,8 @@ pub fn refine_lift(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) 
     };
     let scale_change = (fit.scale / a_T_b.scale - 1.0).abs();
     let near = fit.angle_to(a_T_b) <= MAX_TILT && scale_change <= MAX_SCALE_CHANGE;
-    // Closer in B's units, with the scale kept within a factor: points
-    // collapsed onto one place are close to it.
-    let closer = (fit.scale / a_T_b.scale).ln().abs() <= MISFIT_MAX_SCALE_CHANGE.ln()
-        && LIFT_MISFIT * median_residual(&fit, pairs) / fit.scale
+    let closer = (fit.scale / a_T_b.scale).ln().abs() <= MAX_SCALE_FACTOR.ln()
+        && MUCH_CLOSER * median_residual(&fit, pairs) / fit.scale
             < median_residual(a_T_b, pairs) / a_T_b.scale;
     if near || closer {
         fit

@@ -16,6 +16,7 @@
 
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector2, Vector3};
 
+use super::{MAX_SCALE_FACTOR, MUCH_CLOSER};
 use crate::geometry::{Plane, Polyline2, Similarity3};
 
 /// Points of B used (the range is strided to about this many).
@@ -35,16 +36,11 @@ const FLOOR: f64 = 0.01;
 /// directions the overlap barely constrains (along a straight) stay where
 /// they are.
 const DAMPING: f64 = 1e-3;
-/// Largest change the polish may make to the scale (factor) ...
-const MAX_SCALE_CHANGE: f64 = 1.3;
-/// ... and to the rotation (radians); more means it ran away, unless it
-/// brought the points much closer ([`RUNAWAY_UNLESS_CLOSER`]) with the
-/// scale within its limit.
+/// Largest change the polish may make to the rotation (radians), and to
+/// the scale (`align::MAX_SCALE_FACTOR`); more means it ran away, unless it
+/// brought the points much closer (`align::MUCH_CLOSER`) with the scale
+/// within its limit.
 const MAX_ROTATION: f64 = 0.3;
-/// Beyond those limits the polish is still taken when it brings B's points
-/// this many times closer (median) to A: the lift of a path that leaves
-/// any plane can be off by tens of degrees (`align::lift`).
-const RUNAWAY_UNLESS_CLOSER: f64 = 4.0;
 /// A's part searched reaches this fraction of its range's length beyond it.
 const MARGIN: f64 = 0.5;
 
@@ -127,16 +123,12 @@ pub fn polish(
         }
     }
     let scale_change = (sim.scale / a_T_b.scale).ln().abs();
-    // The scale stays within its limit even then: collapsing onto one
-    // point of A brings every point as close as can be (a drone's hover
-    // matched 5 000 poses of flight at scale 1e-11).
-    let scale_kept = scale_change <= MAX_SCALE_CHANGE.ln();
+    let scale_kept = scale_change <= MAX_SCALE_FACTOR.ln();
     let near = scale_kept && sim.angle_to(a_T_b) <= MAX_ROTATION;
-    // Closer in B's units.
     let closer = || {
         let before = median_distance(a, &sample, a_T_b, lo, hi).map(|d| d / a_T_b.scale);
         let after = median_distance(a, &sample, &sim, lo, hi).map(|d| d / sim.scale);
-        matches!((before, after), (Some(x), Some(y)) if RUNAWAY_UNLESS_CLOSER * y < x)
+        matches!((before, after), (Some(x), Some(y)) if MUCH_CLOSER * y < x)
     };
     if near || (scale_kept && closer()) {
         sim
@@ -329,6 +321,6 @@ mod tests {
         let start = Similarity3::identity();
         let raw = RawPath::new(&a);
         let out = polish(&raw, search_window([100, 199]), &b, [0, 99], &start);
-        assert!(out.scale > 1.0 / MAX_SCALE_CHANGE, "{out:?}");
+        assert!(out.scale > 1.0 / MAX_SCALE_FACTOR, "{out:?}");
     }
 }
