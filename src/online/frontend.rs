@@ -47,7 +47,7 @@ impl TrackParams {
             plane,
             min_step,
             typical_step: chord.typical_step,
-            grid_step: chord.typical_step / 2.0,
+            grid_step: crate::track::grid_step(chord.typical_step, smoother.bandwidth),
             smoother,
         })
     }

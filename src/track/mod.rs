@@ -16,6 +16,18 @@ pub use chord::{ChordParam, ChordStream};
 pub use smooth::Smoother;
 pub use stream::{DiffStream, GridPoint, GridStream, TrackPoint};
 
+/// Grid samples per smoothing bandwidth, at least: finer adds samples but no
+/// shape, which the kernel has removed.
+const SAMPLES_PER_BANDWIDTH: f64 = 8.0;
+
+/// The step of the track's grid in `u`: half the typical pose spacing, or
+/// an eighth of the bandwidth when that is wider (a path smoothed past its
+/// wobble, `Smoother::choose`: TUM fr2/desk at 11 pose spacings kept 22
+/// samples per bandwidth, 179 B of online history per pose).
+pub fn grid_step(typical_step: f64, bandwidth: f64) -> f64 {
+    (typical_step / 2.0).max(bandwidth / SAMPLES_PER_BANDWIDTH)
+}
+
 /// Smoothed curve sampled uniformly in the chord parameter `u`.
 #[derive(Debug, Clone)]
 pub struct Track {
@@ -46,10 +58,9 @@ impl Track {
         Some(Self::from_smoother(&chord, &smoother))
     }
 
-    /// Samples the smoother on a grid of half the typical pose spacing and
-    /// differentiates it.
+    /// Samples the smoother on a grid of [`grid_step`] and differentiates it.
     pub fn from_smoother(chord: &ChordParam, smoother: &Smoother) -> Track {
-        let step = chord.typical_step / 2.0;
+        let step = grid_step(chord.typical_step, smoother.bandwidth);
         let total = chord.total();
         let m = ((total / step).ceil() as usize).max(2) + 1;
         let step = total / (m - 1) as f64;
