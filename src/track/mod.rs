@@ -3,8 +3,8 @@
 //!
 //! Stages: [`chord`] (drop repeated and stationary poses, chord-length
 //! parameter), [`smooth`] (kernel smoothing whose bandwidth is chosen from
-//! the data by generalised cross-validation), then differential geometry on
-//! the smoothed grid.
+//! the data by generalised cross-validation, widened past wobble), then
+//! differential geometry on the smoothed grid ([`grid_step`]).
 
 pub mod chord;
 pub mod smooth;
