@@ -37,10 +37,12 @@ pub fn refine_lift(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) 
     };
     let scale_change = (fit.scale / a_T_b.scale - 1.0).abs();
     let near = fit.angle_to(a_T_b) <= MAX_TILT && scale_change <= MAX_SCALE_CHANGE;
-    let closer = (fit.scale / a_T_b.scale).ln().abs() <= MAX_SCALE_FACTOR.ln()
-        && MUCH_CLOSER * median_residual(&fit, pairs) / fit.scale
-            < median_residual(a_T_b, pairs) / a_T_b.scale;
-    if near || closer {
+    let closer = || {
+        (fit.scale / a_T_b.scale).ln().abs() <= MAX_SCALE_FACTOR.ln()
+            && MUCH_CLOSER * median_residual(&fit, pairs) / fit.scale
+                < median_residual(a_T_b, pairs) / a_T_b.scale
+    };
+    if near || closer() {
         fit
     } else {
         *a_T_b
