@@ -76,9 +76,7 @@ impl Hypothesis {
 
     /// Rotation angle (radians) of the similarity.
     pub fn rotation_angle(&self) -> f64 {
-        ((self.rotation.trace() - 1.0) / 2.0)
-            .clamp(-1.0, 1.0)
-            .acos()
+        self.similarity().angle()
     }
 
     /// The JSON form of `cli.md`.

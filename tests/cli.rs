@@ -245,30 +245,28 @@ fn merge_writes_tum_and_a_figure() {
         b[1].as_u64().unwrap() as usize,
     );
     assert!(b1 - b0 > 500, "a long common part: {b0}..{b1}");
-    let mut d: Vec<f64> = (b0..=b1)
-        .map(|k| (merged.poses[4541 + k].position - merged.poses[k].position).norm())
-        .collect();
-    d.sort_by(f64::total_cmp);
-    assert!(
-        d[d.len() / 2] < 6.0,
-        "median distance {:.1} m",
+    let median = |mut d: Vec<f64>| {
+        d.sort_by(f64::total_cmp);
         d[d.len() / 2]
+    };
+    let same_frame = median(
+        (b0..=b1)
+            .map(|k| (merged.poses[4541 + k].position - merged.poses[k].position).norm())
+            .collect(),
     );
-    let mut to_path: Vec<f64> = (b0..=b1)
-        .map(|k| {
-            let p = merged.poses[4541 + k].position;
-            merged.poses[..4541]
-                .iter()
-                .map(|a| (a.position - p).norm())
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect();
-    to_path.sort_by(f64::total_cmp);
-    assert!(
-        to_path[to_path.len() / 2] < 3.0,
-        "median distance to A's path {:.1} m",
-        to_path[to_path.len() / 2]
+    assert!(same_frame < 6.0, "median distance {same_frame:.1} m");
+    let to_path = median(
+        (b0..=b1)
+            .map(|k| {
+                let p = merged.poses[4541 + k].position;
+                merged.poses[..4541]
+                    .iter()
+                    .map(|a| (a.position - p).norm())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect(),
     );
+    assert!(to_path < 3.0, "median distance to A's path {to_path:.1} m");
     assert!(std::fs::read_to_string(&fig).unwrap().contains("<svg"));
 }
 

@@ -14,9 +14,9 @@ pub use ransac::ransac_similarity;
 
 /// A 3D refinement (`lift::refine_lift`, `polish::polish`) is taken beyond
 /// its rotation limit when it brings the correspondences this many times
-/// closer (median, in B's units): a part of a path that leaves every plane (a drone, a
-/// hand-held camera) has a best-fit plane of its own, and the planes' lift
-/// is off by tens of degrees ...
+/// closer (median, in B's units): a part of a path that leaves every plane
+/// (a drone, a hand-held camera) has a best-fit plane of its own, and the
+/// planes' lift is off by tens of degrees ...
 const MUCH_CLOSER: f64 = 4.0;
 /// ... as long as the scale moves by less than this factor: points shrunk
 /// onto one place are as close to it as can be (the polish took a drone's

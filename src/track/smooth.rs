@@ -191,34 +191,30 @@ impl Smoother {
     }
 }
 
-/// Total turning (radians) of a polyline: the sum of the absolute angles
-/// between consecutive non-zero steps.
-fn turning_of(points: &[Vector2<f64>]) -> f64 {
+/// The absolute turn (radians) at each vertex of a polyline, between its
+/// consecutive non-zero steps.
+fn step_turns(points: &[Vector2<f64>]) -> impl Iterator<Item = f64> + '_ {
     let mut prev: Option<Vector2<f64>> = None;
-    let mut total = 0.0;
-    for w in points.windows(2) {
+    points.windows(2).filter_map(move |w| {
         let d = w[1] - w[0];
-        if d.norm_squared() > 0.0 {
-            if let Some(e) = prev {
-                total += e.perp(&d).atan2(e.dot(&d)).abs();
-            }
-            prev = Some(d);
+        if d.norm_squared() == 0.0 {
+            return None;
         }
-    }
-    total
+        let turn = prev.map(|e| e.perp(&d).atan2(e.dot(&d)).abs());
+        prev = Some(d);
+        turn
+    })
+}
+
+/// Total turning (radians) of a polyline.
+fn turning_of(points: &[Vector2<f64>]) -> f64 {
+    step_turns(points).sum()
 }
 
 /// True when the path turns more than [`SPARSE_TURN`] between consecutive
 /// poses at its turns (scale-free: an angle per pose).
 fn is_sparse(points: &[Vector2<f64>]) -> bool {
-    let mut turns: Vec<f64> = points
-        .windows(3)
-        .filter_map(|w| {
-            let (d0, d1) = (w[1] - w[0], w[2] - w[1]);
-            let n = d0.norm() * d1.norm();
-            (n > 0.0).then(|| (d0.perp(&d1)).atan2(d0.dot(&d1)).abs())
-        })
-        .collect();
+    let mut turns: Vec<f64> = step_turns(points).collect();
     if turns.is_empty() {
         return false;
     }
