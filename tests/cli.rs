@@ -271,6 +271,43 @@ fn merge_writes_tum_and_a_figure() {
 }
 
 #[test]
+fn merge_of_paths_with_no_common_road_warns_and_min_score_refuses() {
+    // KITTI 00 (ground truth) and 06 (monocular ORB-SLAM2) share no road:
+    // whatever ranks first is a look-alike.
+    let dir = tempfile::tempdir().unwrap();
+    let out_tum = dir.path().join("merged.tum");
+    let args = [
+        "merge",
+        "tests/data/00.txt",
+        "tests/data/06_orbslam2_tum.txt",
+        "-o",
+        out_tum.to_str().unwrap(),
+    ];
+    let out = turnprint(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("warning: score"), "warns: {stderr}");
+    assert!(out_tum.exists());
+    std::fs::remove_file(&out_tum).unwrap();
+    let refused = turnprint(&[&args[..], &["--min-score", "0.1"]].concat());
+    assert_clean_error(&refused, Path::new("06_orbslam2_tum.txt"), None);
+    assert!(!out_tum.exists(), "nothing written");
+    // A true merge neither warns nor is refused.
+    let good = turnprint(&[
+        "merge",
+        "tests/data/00.txt",
+        "tests/data/00_orbslam2_tum.txt",
+        "-o",
+        out_tum.to_str().unwrap(),
+        "--min-score",
+        "0.1",
+    ]);
+    let stderr = String::from_utf8_lossy(&good.stderr);
+    assert!(good.status.success(), "{stderr}");
+    assert!(!stderr.contains("warning"), "{stderr}");
+}
+
+#[test]
 fn stream_no_drift_probe_flag_keeps_the_json_lines_contract() {
     let out = turnprint(&["stream", "tests/data/00.txt", "--json", "--no-drift-probe"]);
     assert!(
