@@ -1,5 +1,7 @@
 //! Batch speed on this machine: `loops` on KITTI 00 (4541 poses) end to end,
-//! `match` of two 5000-pose paths, `match` of KITTI 00 against its 1 Hz GPS
+//! and on five KITTI drives driven one after the other (17 k poses, 15 km:
+//! the ZNCC search grows with the square of the length), `match` of two
+//! 5000-pose paths, `match` of KITTI 00 against its 1 Hz GPS
 //! (two sampling rates: matched twice), and, side by side, the FFT ZNCC
 //! against the direct one on the same signature.
 
@@ -36,6 +38,33 @@ fn bench_loops(c: &mut Criterion) {
     c.bench_function("loops KITTI 00 (4541 poses, end to end)", |b| {
         b.iter(|| find_loops(black_box(&a), &config).unwrap())
     });
+}
+
+/// KITTI 00, 02, 05, 06 and 08 driven one after the other, each drive
+/// starting where the last one ended.
+fn five_drives() -> Trajectory {
+    let mut t = kitti("00.txt");
+    for name in ["02.txt", "05.txt", "06.txt", "08.txt"] {
+        let next = kitti(name);
+        let offset = t.poses.last().unwrap().position - next.poses[0].position;
+        t.poses.extend(
+            next.poses
+                .iter()
+                .map(|p| turnprint::Pose::at(p.position + offset)),
+        );
+    }
+    t
+}
+
+fn bench_loops_long(c: &mut Criterion) {
+    let a = five_drives();
+    let config = Config::for_loops();
+    let mut group = c.benchmark_group("loops of five KITTI drives in a row");
+    group.sample_size(10);
+    group.bench_function("17135 poses, 15 km, end to end", |b| {
+        b.iter(|| find_loops(black_box(&a), &config).unwrap())
+    });
+    group.finish();
 }
 
 fn bench_match(c: &mut Criterion) {
@@ -81,6 +110,7 @@ fn bench_zncc(c: &mut Criterion) {
 criterion_group!(
     benches,
     bench_loops,
+    bench_loops_long,
     bench_match,
     bench_match_gps,
     bench_zncc

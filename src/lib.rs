@@ -19,6 +19,7 @@ pub mod hypothesis;
 pub mod io;
 pub mod matching;
 pub mod online;
+pub mod parallel;
 pub mod pipeline;
 #[cfg(feature = "plot")]
 pub mod plot;

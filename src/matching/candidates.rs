@@ -124,55 +124,76 @@ pub fn queries(bounds: &[usize], n: usize, dk: f64, config: &QueryConfig) -> Vec
 
 /// Runs every query range of `query_sig` against the correlator's signature
 /// and pools the peaks by alignment line. `keep` rejects trivial alignments
-/// (self-matches).
+/// (self-matches). The queries run on every core; their votes are pooled in
+/// query order, so the result does not depend on the number of cores.
 pub fn search(
-    target: &mut Correlator,
+    target: &Correlator,
     query_sig: &[f64],
     query_ranges: &[[usize; 2]],
     config: &QueryConfig,
     keep: impl Fn(&Candidate) -> bool,
 ) -> Vec<Candidate> {
+    let n = target.len();
+    let runnable: Vec<[usize; 2]> = query_ranges
+        .iter()
+        .copied()
+        .filter(|&[q0, q1]| q1 - q0 < n && q1 > q0 + 1)
+        .collect();
+    let votes = crate::parallel::map_with(
+        &runnable,
+        || target.fork(),
+        |correlator, &range| Some(votes(correlator, query_sig, range, config)),
+    );
     let mut pooled: HashMap<(Orientation, i64), Vec<Candidate>> = HashMap::new();
-    for &[q0, q1] in query_ranges {
-        if q1 - q0 + 1 > target.len() || q1 <= q0 + 1 {
-            continue;
-        }
-        let scores = target.scores(&query_sig[q0..=q1]);
-        let len = (q1 - q0 + 1) as f64;
-        for (reversed, s) in [(false, &scores.forward), (true, &scores.reversed)] {
-            for sign in [1.0, -1.0] {
-                if sign < 0.0 && !config.mirror {
-                    continue;
-                }
-                for (d, z) in peaks(s, sign, config, (q1 - q0).div_ceil(2)) {
-                    let orientation = Orientation {
-                        reversed,
-                        mirrored: sign < 0.0,
-                    };
-                    let line = if reversed {
-                        (d + (q1 - q0)) as i64 + q0 as i64
-                    } else {
-                        d as i64 - q0 as i64
-                    };
-                    let cand = Candidate {
-                        orientation,
-                        query: [q0, q1],
-                        seed: [q0, q1],
-                        line,
-                        zncc: z,
-                        strength: z * z * len,
-                    };
-                    if !keep(&cand) {
-                        continue;
-                    }
-                    let key = (orientation, line.div_euclid(config.line_tolerance as i64));
-                    pool(&mut pooled, key, cand);
-                }
-            }
+    for cand in votes.into_iter().flatten() {
+        if keep(&cand) {
+            let key = (
+                cand.orientation,
+                cand.line.div_euclid(config.line_tolerance as i64),
+            );
+            pool(&mut pooled, key, cand);
         }
     }
     let mut out: Vec<Candidate> = pooled.into_values().flatten().collect();
     out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
+    out
+}
+
+/// The peaks of one query range, each a vote for its alignment line.
+fn votes(
+    target: &mut Correlator,
+    query_sig: &[f64],
+    [q0, q1]: [usize; 2],
+    config: &QueryConfig,
+) -> Vec<Candidate> {
+    let scores = target.scores(&query_sig[q0..=q1]);
+    let len = (q1 - q0 + 1) as f64;
+    let mut out = Vec::new();
+    for (reversed, s) in [(false, &scores.forward), (true, &scores.reversed)] {
+        for sign in [1.0, -1.0] {
+            if sign < 0.0 && !config.mirror {
+                continue;
+            }
+            for (d, z) in peaks(s, sign, config, (q1 - q0).div_ceil(2)) {
+                let line = if reversed {
+                    (d + (q1 - q0)) as i64 + q0 as i64
+                } else {
+                    d as i64 - q0 as i64
+                };
+                out.push(Candidate {
+                    orientation: Orientation {
+                        reversed,
+                        mirrored: sign < 0.0,
+                    },
+                    query: [q0, q1],
+                    seed: [q0, q1],
+                    line,
+                    zncc: z,
+                    strength: z * z * len,
+                });
+            }
+        }
+    }
     out
 }
 

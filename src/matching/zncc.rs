@@ -28,16 +28,21 @@ pub struct ZnccScores {
 
 /// A long signature prepared for many queries: its spectrum and prefix sums.
 pub struct Correlator {
+    shared: Arc<Prepared>,
+    fft: Arc<dyn Fft<f64>>,
+    ifft: Arc<dyn Fft<f64>>,
+    scratch: Vec<Complex<f64>>,
+    buf: Vec<Complex<f64>>,
+}
+
+/// What every query reads: the signature, its prefix sums and spectrum.
+struct Prepared {
     a: Vec<f64>,
     prefix: Vec<f64>,
     prefix_sq: Vec<f64>,
     flat: f64,
     fft_len: usize,
     spectrum: Vec<Complex<f64>>,
-    fft: Arc<dyn Fft<f64>>,
-    ifft: Arc<dyn Fft<f64>>,
-    scratch: Vec<Complex<f64>>,
-    buf: Vec<Complex<f64>>,
 }
 
 impl Correlator {
@@ -68,12 +73,14 @@ impl Correlator {
             0.0
         };
         Correlator {
-            a: a.to_vec(),
-            prefix,
-            prefix_sq,
-            flat: FLAT_FRACTION * var,
-            fft_len,
-            spectrum,
+            shared: Arc::new(Prepared {
+                a: a.to_vec(),
+                prefix,
+                prefix_sq,
+                flat: FLAT_FRACTION * var,
+                fft_len,
+                spectrum,
+            }),
             fft,
             ifft,
             scratch,
@@ -81,53 +88,66 @@ impl Correlator {
         }
     }
 
+    /// A second correlator over the same prepared signature, with its own
+    /// buffers: one per thread.
+    pub fn fork(&self) -> Correlator {
+        Correlator {
+            shared: Arc::clone(&self.shared),
+            fft: Arc::clone(&self.fft),
+            ifft: Arc::clone(&self.ifft),
+            scratch: vec![Complex::new(0.0, 0.0); self.scratch.len()],
+            buf: Vec::new(),
+        }
+    }
+
     /// Length of the prepared signature.
     pub fn len(&self) -> usize {
-        self.a.len()
+        self.shared.a.len()
     }
 
     /// True when the prepared signature is empty.
     pub fn is_empty(&self) -> bool {
-        self.a.is_empty()
+        self.shared.a.is_empty()
     }
 
     /// The prepared signature.
     pub fn signal(&self) -> &[f64] {
-        &self.a
+        &self.shared.a
     }
 
     /// ZNCC of `q` at every offset, by FFT. Falls back to [`zncc_direct`]
     /// when `q` is longer than the correlator was prepared for.
     pub fn scores(&mut self, q: &[f64]) -> ZnccScores {
-        let (n, l) = (self.a.len(), q.len());
+        let shared = Arc::clone(&self.shared);
+        let (n, l) = (shared.a.len(), q.len());
         if l < 2 || l > n {
             return ZnccScores::default();
         }
-        if n + l > self.fft_len {
-            return zncc_direct(&self.a, q);
+        if n + l > shared.fft_len {
+            return zncc_direct(&shared.a, q);
         }
         let Some((qz, q_norm)) = centred(q) else {
             return ZnccScores::default();
         };
         self.buf.clear();
         self.buf.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
-        self.buf.resize(self.fft_len, Complex::new(0.0, 0.0));
+        self.buf.resize(shared.fft_len, Complex::new(0.0, 0.0));
         self.fft
             .process_with_scratch(&mut self.buf, &mut self.scratch);
         let i = Complex::new(0.0, 1.0);
-        for (b, a) in self.buf.iter_mut().zip(&self.spectrum) {
+        for (b, a) in self.buf.iter_mut().zip(&shared.spectrum) {
             *b = a * b.conj() + i * (a * *b);
         }
         self.ifft
             .process_with_scratch(&mut self.buf, &mut self.scratch);
-        let norm = 1.0 / self.fft_len as f64;
+        let norm = 1.0 / shared.fft_len as f64;
         let count = n - l + 1;
         let mut out = ZnccScores {
             forward: Vec::with_capacity(count),
             reversed: Vec::with_capacity(count),
         };
         for d in 0..count {
-            let denom = self.window_norm(d, l) * q_norm;
+            let denom = shared.window_norm(d, l) * q_norm;
             if denom <= 0.0 {
                 out.forward.push(0.0);
                 out.reversed.push(0.0);
@@ -140,7 +160,9 @@ impl Correlator {
         }
         out
     }
+}
 
+impl Prepared {
     /// `sqrt(Σ (a - ā)^2)` over the window `d..d+l`, 0 when flat.
     fn window_norm(&self, d: usize, l: usize) -> f64 {
         let sum = self.prefix[d + l] - self.prefix[d];

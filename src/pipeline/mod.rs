@@ -126,18 +126,18 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
     // longer than the other path, or than the common part, finds nothing),
     // pooled by alignment line, A's votes turned into B-query form.
     let (sa, sb) = (&pa.signature, &pb.signature);
-    let mut to_a = Correlator::new(&sa.value, sb.len());
+    let to_a = Correlator::new(&sa.value, sb.len());
     let mut candidates = search(
-        &mut to_a,
+        &to_a,
         &sb.value,
         &queries(&pb.bounds, sb.len(), sb.dk, &config.query),
         &config.query,
         |_| true,
     );
-    let mut to_b = Correlator::new(&sb.value, sa.len());
+    let to_b = Correlator::new(&sb.value, sa.len());
     candidates.extend(
         search(
-            &mut to_b,
+            &to_b,
             &sa.value,
             &queries(&pa.bounds, sa.len(), sa.dk, &config.query),
             &config.query,
@@ -162,7 +162,7 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
         .map(Job::Zncc)
         .chain(proposals.iter().map(Job::Turns))
         .collect();
-    let hypotheses = parallel_map(&jobs, |job| match job {
+    let hypotheses = crate::parallel::map(&jobs, |job| match job {
         Job::Zncc(cand) => {
             let mirrored = cand.orientation.mirrored;
             verify::verify_best(pa, pb, &xy[mirrored as usize], cand, config, &|_, _| true)
@@ -211,28 +211,6 @@ enum LoopJob<'a> {
     Proximity(&'a proximity::ProximitySeed),
 }
 
-/// `f` over `items` on every available core (scoped threads; results in
-/// order, `None`s dropped).
-fn parallel_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> Option<R> + Sync) -> Vec<R> {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(items.len().max(1));
-    if threads <= 1 {
-        return items.iter().filter_map(&f).collect();
-    }
-    let chunk = items.len().div_ceil(threads);
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = items
-            .chunks(chunk)
-            .map(|part| scope.spawn(|| part.iter().filter_map(&f).collect::<Vec<R>>()))
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| h.join().unwrap_or_default())
-            .collect()
-    })
-}
-
 /// Places that path A revisits. `a_range` is the later (query) part,
 /// `b_range` the earlier (match) part; the similarity maps match onto query.
 pub fn find_loops(a: &Trajectory, config: &Config) -> Result<Vec<Hypothesis>> {
@@ -259,9 +237,9 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     };
     let mut query = config.query;
     query.mirror = false;
-    let mut correlator = Correlator::new(&sig.value, sig.len());
+    let correlator = Correlator::new(&sig.value, sig.len());
     let ranges = queries(&pa.bounds, sig.len(), sig.dk, &query);
-    let candidates = search(&mut correlator, &sig.value, &ranges, &query, clear);
+    let candidates = search(&correlator, &sig.value, &ranges, &query, clear);
     let xy = pa.points(false);
     let track = &pa.track;
     // Grown points stay away from themselves along the path by at least the
@@ -281,7 +259,7 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
         .collect();
     // Shape candidates and proximity seeds verified the same way, on every
     // core.
-    let verified = parallel_map(&jobs, |job| match job {
+    let verified = crate::parallel::map(&jobs, |job| match job {
         LoopJob::Zncc(cand) => {
             let seed_len = sig.s[cand.seed[1]] - sig.s[cand.seed[0]];
             verify::verify_best(pa, pa, &xy, cand, config, &away(seed_len)).map(|(v, _)| v)
