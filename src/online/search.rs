@@ -452,7 +452,8 @@ pub fn verify_all(
         }
     }
     found.retain(|f| emitted(f, config, frame.step));
-    crate::pipeline::rank::rank(found, config.top_k, f64::NEG_INFINITY)
+    use crate::pipeline::rank::{rank, Duplicates};
+    rank(found, config.top_k, f64::NEG_INFINITY, Duplicates::Place)
 }
 
 /// Whether a candidate is emitted: its score reaches the cut of its

@@ -28,6 +28,7 @@ use crate::matching::Correlator;
 use crate::score::{loop_score, score};
 use crate::track::Track;
 use crate::{Hypothesis, Result, Trajectory};
+use rank::Duplicates;
 
 /// Where path B overlaps path A, best first (at most `config.top_k`).
 pub fn match_paths(a: &Trajectory, b: &Trajectory, config: &Config) -> Result<Vec<Hypothesis>> {
@@ -74,7 +75,7 @@ pub fn match_across_rates(
     let mut all = match_prepared(pa, pb, config);
     // The denser one thinned to the other's rate, where they differ.
     all.extend(match_thinned(a, b, pa, pb, config));
-    let ranked = rank::rank(all, config.top_k, config.min_score);
+    let ranked = rank::rank(all, config.top_k, config.min_score, Duplicates::Alignment);
     // The reported similarities, refined on the raw poses.
     polished(&pa.positions, &pb.positions, ranked)
 }
@@ -183,7 +184,12 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
             .map(|v| to_hypothesis(pa, pb, &v, score(&v.evidence, &config.score), false))
         }
     });
-    rank::rank(hypotheses, config.top_k, config.min_score)
+    rank::rank(
+        hypotheses,
+        config.top_k,
+        config.min_score,
+        Duplicates::Alignment,
+    )
 }
 
 /// The shape candidates to verify under `config`'s budget.
@@ -306,7 +312,12 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     // differ by lane and line, which a point-to-line fit follows away from
     // the consistent map's near-identity (ground truth of 00-08, 15
     // correct loops: median error 0.75 m as grown, 1.81 m polished).
-    rank::rank(hypotheses, config.top_k, config.min_score)
+    rank::rank(
+        hypotheses,
+        config.top_k,
+        config.min_score,
+        Duplicates::Place,
+    )
 }
 
 /// Median distance in the map between corresponding poses of a loop.

@@ -74,7 +74,7 @@ pub fn verify(
     // grown overlap knows the scale, and so a common one.
     let negate = overlap.reversed != cand.orientation.mirrored;
     let zncc = cand.zncc.max(overlap_zncc(target, query, &overlap, negate));
-    finish(target, query, overlap, cand.clone(), zncc)
+    finish(target, query, query_xy, overlap, cand.clone(), zncc, config)
 }
 
 /// The RANSAC similarity (query -> target) of a candidate's seed samples,
@@ -178,7 +178,7 @@ pub fn verify_seeded(
         zncc,
         strength: 0.0,
     };
-    finish(target, query, overlap, cand, zncc)
+    finish(target, query, query_xy, overlap, cand, zncc, config)
 }
 
 /// Each side of an overlap spans at least this many of its own path's
@@ -193,9 +193,11 @@ const MIN_SIDE_BANDWIDTHS: f64 = 2.0;
 fn finish(
     target: &PreparedPath,
     query: &PreparedPath,
+    query_xy: &[Vector2<f64>],
     overlap: Overlap,
     candidate: Candidate,
     zncc: f64,
+    config: &Config,
 ) -> Option<Verified> {
     if overlap.target_length < MIN_SIDE_BANDWIDTHS * target.track.bandwidth
         // (`query_length` is in the target's units, through the scale.)
@@ -207,6 +209,13 @@ fn finish(
     let query_fraction =
         overlap.query_length / (overlap.a_T_b.scale * query.track.length()).max(f64::MIN_POSITIVE);
     let target_fraction = overlap.target_length / target.track.length().max(f64::MIN_POSITIVE);
+    // A path that drives a road twice holds it at two places: the query
+    // may lie on the target beyond the one matched stretch.
+    let on_target = if config.score.coverage_power > 0.0 {
+        share_on_target(target, query_xy, &overlap, length)
+    } else {
+        0.0
+    };
     let evidence = Evidence {
         zncc,
         // Turns that agree are on both sides: noise adds turning to one
@@ -216,13 +225,48 @@ fn finish(
             .min(target.turning_between(overlap.target[0], overlap.target[1])),
         relative_rmse: overlap.rmse / length.max(f64::MIN_POSITIVE),
         length_ratio: overlap.target_length / overlap.query_length,
-        coverage: query_fraction.max(target_fraction).clamp(0.0, 1.0),
+        coverage: query_fraction
+            .max(target_fraction)
+            .max(on_target)
+            .clamp(0.0, 1.0),
     };
     Some(Verified {
         overlap,
         candidate,
         evidence,
     })
+}
+
+/// Query points checked by [`share_on_target`].
+const ON_TARGET_SAMPLES: usize = 256;
+
+/// Within this fraction of the matched length (or 3 RMS residuals), a
+/// query point mapped by the overlap's similarity lies on the target.
+const ON_TARGET_FRACTION: f64 = 0.02;
+
+/// Share of the whole query (uniform grid, so by length) that the overlap's
+/// similarity lays on the target anywhere, inside the matched stretch or
+/// not.
+fn share_on_target(
+    target: &PreparedPath,
+    query_xy: &[Vector2<f64>],
+    overlap: &Overlap,
+    length: f64,
+) -> f64 {
+    let n = query_xy.len();
+    if n == 0 {
+        return 0.0;
+    }
+    let tol = (ON_TARGET_FRACTION * length).max(3.0 * overlap.rmse);
+    let samples = ON_TARGET_SAMPLES.min(n);
+    let on = (0..samples)
+        .map(|i| &query_xy[i * (n - 1) / (samples - 1).max(1)])
+        .filter(|q| {
+            let p = overlap.a_T_b.apply(q);
+            target.polyline.project_within(&p, tol, |_| true).is_some()
+        })
+        .count();
+    on as f64 / samples as f64
 }
 
 /// ZNCC of the two paths' curvature over the grown overlap, sampled at
