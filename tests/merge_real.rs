@@ -149,3 +149,16 @@ fn a_single_corner_fixes_the_scale_once_points_slide_along_the_road() {
         }
     }
 }
+
+/// KITTI 06 is a racetrack: its two U-turns look alike. B's lap laid on A's
+/// turned by 180° outscored the exact placement, whose one matched stretch
+/// covers half of B (the rest of B lies on A's first pass over the same
+/// straight), and de-duplication by ranges alone then dropped the exact
+/// placement as the turned one's duplicate.
+#[test]
+fn racetrack_placement_turned_180_does_not_hide_the_true_one() {
+    for case in cases("06", Source::Gt, true, [13, 802], [500, 1068]) {
+        assert!(case.oracle_correct);
+        assert!(case.rank1_correct, "{case:?}");
+    }
+}
