@@ -37,9 +37,11 @@ pub fn map_with<T: Sync, R: Send, S>(
                 })
             })
             .collect();
+        // A worker that panicked takes its chunk's results with it: raise
+        // its panic here rather than return the others as if complete.
         handles
             .into_iter()
-            .flat_map(|h| h.join().unwrap_or_default())
+            .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
             .collect()
     })
 }

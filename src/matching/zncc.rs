@@ -118,7 +118,13 @@ impl Correlator {
     /// ZNCC of `q` at every offset, by FFT. Falls back to [`zncc_direct`]
     /// when `q` is longer than the correlator was prepared for.
     pub fn scores(&mut self, q: &[f64]) -> ZnccScores {
-        let shared = Arc::clone(&self.shared);
+        let Correlator {
+            shared,
+            fft,
+            ifft,
+            scratch,
+            buf,
+        } = self;
         let (n, l) = (shared.a.len(), q.len());
         if l < 2 || l > n {
             return ZnccScores::default();
@@ -129,17 +135,15 @@ impl Correlator {
         let Some((qz, q_norm)) = centred(q) else {
             return ZnccScores::default();
         };
-        self.buf.clear();
-        self.buf.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
-        self.buf.resize(shared.fft_len, Complex::new(0.0, 0.0));
-        self.fft
-            .process_with_scratch(&mut self.buf, &mut self.scratch);
+        buf.clear();
+        buf.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
+        buf.resize(shared.fft_len, Complex::new(0.0, 0.0));
+        fft.process_with_scratch(buf, scratch);
         let i = Complex::new(0.0, 1.0);
-        for (b, a) in self.buf.iter_mut().zip(&shared.spectrum) {
+        for (b, a) in buf.iter_mut().zip(&shared.spectrum) {
             *b = a * b.conj() + i * (a * *b);
         }
-        self.ifft
-            .process_with_scratch(&mut self.buf, &mut self.scratch);
+        ifft.process_with_scratch(buf, scratch);
         let norm = 1.0 / shared.fft_len as f64;
         let count = n - l + 1;
         let mut out = ZnccScores {
@@ -153,8 +157,8 @@ impl Correlator {
                 out.reversed.push(0.0);
                 continue;
             }
-            let corr = self.buf[d].re * norm;
-            let conv = self.buf[d + l - 1].im * norm;
+            let corr = buf[d].re * norm;
+            let conv = buf[d + l - 1].im * norm;
             out.forward.push((corr / denom).clamp(-1.0, 1.0));
             out.reversed.push((-conv / denom).clamp(-1.0, 1.0));
         }

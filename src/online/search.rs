@@ -16,6 +16,7 @@ use nalgebra::Vector2;
 use crate::geometry::{Plane, Similarity2};
 use crate::matching::{Candidate, Orientation};
 use crate::pipeline::proximity::{radius, seed_of, Near, ProximitySeed, PROBES};
+use crate::pipeline::rank::{rank, Duplicates};
 use crate::pipeline::{verify, Verified};
 use crate::score::{loop_score, score};
 use crate::Hypothesis;
@@ -452,7 +453,6 @@ pub fn verify_all(
         }
     }
     found.retain(|f| emitted(f, config, frame.step));
-    use crate::pipeline::rank::{rank, Duplicates};
     rank(found, config.top_k, f64::NEG_INFINITY, Duplicates::Place)
 }
 
