@@ -212,9 +212,8 @@ impl Correlator {
                 // (negative `t` wrapped to `m + t`).
                 let first = base.saturating_sub(l - 1);
                 let last = (base + blocks.block - 1).min(n - l);
-                for d in first..=last {
-                    let t = (d + m - base) % m;
-                    corr[d] += buf[t].re;
+                for (d, c) in corr.iter_mut().enumerate().take(last + 1).skip(first) {
+                    *c += buf[(d + m - base) % m].re;
                 }
                 // Convolution at `base + u`, `u` in `0..block + l - 1`.
                 for (u, b) in buf.iter().take(blocks.block + l - 1).enumerate() {
