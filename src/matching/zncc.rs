@@ -43,6 +43,11 @@ pub struct Correlator {
     ifft: Arc<dyn Fft<f64>>,
     scratch: Vec<Complex<f64>>,
     buf: Vec<Complex<f64>>,
+    /// The query's spectrum (block-wise path).
+    query: Vec<Complex<f64>>,
+    /// Raw correlation and convolution of the last query.
+    corr: Vec<f64>,
+    conv: Vec<f64>,
 }
 
 /// What every query reads: the signature, its prefix sums and spectrum.
@@ -133,6 +138,9 @@ impl Correlator {
             ifft,
             scratch,
             buf: Vec::new(),
+            query: Vec::new(),
+            corr: Vec::new(),
+            conv: Vec::new(),
         }
     }
 
@@ -145,6 +153,9 @@ impl Correlator {
             ifft: Arc::clone(&self.ifft),
             scratch: vec![Complex::new(0.0, 0.0); self.scratch.len()],
             buf: Vec::new(),
+            query: Vec::new(),
+            corr: Vec::new(),
+            conv: Vec::new(),
         }
     }
 
@@ -172,6 +183,9 @@ impl Correlator {
             ifft,
             scratch,
             buf,
+            query,
+            corr,
+            conv,
         } = self;
         let (n, l) = (shared.a.len(), q.len());
         if l < 2 || l > n {
@@ -186,7 +200,11 @@ impl Correlator {
         let i = Complex::new(0.0, 1.0);
         let block = l.next_power_of_two().max(MIN_BLOCK);
         // `corr(d)` and `conv(d + l - 1)` of the raw signature, unscaled.
-        let (corr, conv, norm): (Vec<f64>, Vec<f64>, f64) = if 4 * block <= shared.fft_len {
+        corr.clear();
+        corr.resize(n, 0.0);
+        conv.clear();
+        conv.resize(n, 0.0);
+        let norm = if 4 * block <= shared.fft_len {
             let blocks = shared.blocks[block.trailing_zeros() as usize]
                 .get_or_init(|| Blocks::new(&shared.a, block));
             let m = 2 * blocks.block;
@@ -197,13 +215,13 @@ impl Correlator {
             if scratch.len() < need {
                 scratch.resize(need, Complex::new(0.0, 0.0));
             }
-            let mut query: Vec<Complex<f64>> = qz.iter().map(|&x| Complex::new(x, 0.0)).collect();
+            query.clear();
+            query.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
             query.resize(m, Complex::new(0.0, 0.0));
-            blocks.fft.process_with_scratch(&mut query, scratch);
-            let (mut corr, mut conv) = (vec![0.0; n], vec![0.0; n]);
+            blocks.fft.process_with_scratch(query, scratch);
             buf.resize(m, Complex::new(0.0, 0.0));
             for (j, spectrum) in blocks.spectra.iter().enumerate() {
-                for ((b, a), q) in buf.iter_mut().zip(spectrum).zip(&query) {
+                for ((b, a), q) in buf.iter_mut().zip(spectrum).zip(query.iter()) {
                     *b = a * q.conj() + i * (a * q);
                 }
                 blocks.ifft.process_with_scratch(&mut buf[..m], scratch);
@@ -222,7 +240,7 @@ impl Correlator {
                     }
                 }
             }
-            (corr, conv, 1.0 / m as f64)
+            1.0 / m as f64
         } else {
             buf.clear();
             buf.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
@@ -232,9 +250,10 @@ impl Correlator {
                 *b = a * b.conj() + i * (a * *b);
             }
             ifft.process_with_scratch(buf, scratch);
-            let corr = buf[..n].iter().map(|b| b.re).collect();
-            let conv = buf[..n].iter().map(|b| b.im).collect();
-            (corr, conv, 1.0 / shared.fft_len as f64)
+            for ((c, v), b) in corr.iter_mut().zip(conv.iter_mut()).zip(buf.iter()) {
+                (*c, *v) = (b.re, b.im);
+            }
+            1.0 / shared.fft_len as f64
         };
         let count = n - l + 1;
         let mut out = ZnccScores {
