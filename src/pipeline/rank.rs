@@ -26,8 +26,8 @@ const SAME_LOG_SCALE: f64 = 0.2;
 /// True when `a` and `b` map B alike: rotations within [`SAME_ROTATION`],
 /// scales within [`SAME_LOG_SCALE`].
 fn same_similarity(a: &Hypothesis, b: &Hypothesis) -> bool {
-    let cos = ((a.rotation.transpose() * b.rotation).trace() - 1.0) / 2.0;
-    cos.clamp(-1.0, 1.0).acos() <= SAME_ROTATION && (a.scale / b.scale).ln().abs() <= SAME_LOG_SCALE
+    a.similarity().angle_to(&b.similarity()) <= SAME_ROTATION
+        && (a.scale / b.scale).ln().abs() <= SAME_LOG_SCALE
 }
 
 /// What makes two hypotheses one.
