@@ -1,6 +1,7 @@
 //! Whole-to-part and part-to-part matching of signatures by zero-mean
 //! normalised cross-correlation (ZNCC), both directions of travel.
 
+pub mod blocks;
 pub mod candidates;
 pub mod peaks;
 pub mod turns;

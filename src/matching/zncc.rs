@@ -15,11 +15,15 @@
 //! class, and every block's products summed into place. That costs about
 //! `2n log 2B` per query instead of `2 · 2n log 2n` for one transform of the
 //! whole length: the search of a long path is dominated by short queries.
+//! The block arithmetic ([`crate::matching::blocks`]) is the online
+//! detector's too.
 
 use std::sync::{Arc, OnceLock};
 
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
+
+use super::blocks::BlockTransform;
 
 /// Below this fraction of the signature's variance a window is flat: no score.
 const FLAT_FRACTION: f64 = 1e-4;
@@ -65,35 +69,15 @@ struct Prepared {
 /// The signature cut into blocks of `block` samples, each zero-padded to
 /// `2 · block` and transformed.
 struct Blocks {
-    block: usize,
-    fft: Arc<dyn Fft<f64>>,
-    ifft: Arc<dyn Fft<f64>>,
+    transform: BlockTransform<f64>,
     spectra: Vec<Vec<Complex<f64>>>,
 }
 
 impl Blocks {
     fn new(a: &[f64], block: usize) -> Blocks {
-        let mut planner = FftPlanner::new();
-        let m = 2 * block;
-        let fft = planner.plan_fft_forward(m);
-        let ifft = planner.plan_fft_inverse(m);
-        let mut scratch = vec![Complex::new(0.0, 0.0); fft.get_inplace_scratch_len()];
-        let spectra = a
-            .chunks(block)
-            .map(|chunk| {
-                let mut spectrum: Vec<Complex<f64>> =
-                    chunk.iter().map(|&x| Complex::new(x, 0.0)).collect();
-                spectrum.resize(m, Complex::new(0.0, 0.0));
-                fft.process_with_scratch(&mut spectrum, &mut scratch);
-                spectrum
-            })
-            .collect();
-        Blocks {
-            block,
-            fft,
-            ifft,
-            spectra,
-        }
+        let transform = BlockTransform::new(block);
+        let spectra = transform.spectra(a);
+        Blocks { transform, spectra }
     }
 }
 
@@ -207,40 +191,23 @@ impl Correlator {
         let norm = if 4 * block <= shared.fft_len {
             let blocks = shared.blocks[block.trailing_zeros() as usize]
                 .get_or_init(|| Blocks::new(&shared.a, block));
-            let m = 2 * blocks.block;
-            let need = blocks
-                .fft
-                .get_inplace_scratch_len()
-                .max(blocks.ifft.get_inplace_scratch_len());
-            if scratch.len() < need {
-                scratch.resize(need, Complex::new(0.0, 0.0));
-            }
-            query.clear();
-            query.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));
-            query.resize(m, Complex::new(0.0, 0.0));
-            blocks.fft.process_with_scratch(query, scratch);
-            buf.resize(m, Complex::new(0.0, 0.0));
+            let t = &blocks.transform;
+            t.spectrum_into(&qz, 1.0, query, scratch);
+            // Offsets past `n - l` are not scored.
+            let offsets = n - l + 1;
             for (j, spectrum) in blocks.spectra.iter().enumerate() {
-                for ((b, a), q) in buf.iter_mut().zip(spectrum).zip(query.iter()) {
-                    *b = a * q.conj() + i * (a * q);
-                }
-                blocks.ifft.process_with_scratch(&mut buf[..m], scratch);
-                let base = j * blocks.block;
-                // Correlation at offsets `base + t`, `t` in `1 - l..block`
-                // (negative `t` wrapped to `m + t`).
-                let first = base.saturating_sub(l - 1);
-                let last = (base + blocks.block - 1).min(n - l);
-                for (d, c) in corr.iter_mut().enumerate().take(last + 1).skip(first) {
-                    *c += buf[(d + m - base) % m].re;
-                }
-                // Convolution at `base + u`, `u` in `0..block + l - 1`.
-                for (u, b) in buf.iter().take(blocks.block + l - 1).enumerate() {
-                    if let Some(c) = conv.get_mut(base + u) {
-                        *c += b.im;
-                    }
-                }
+                t.add_block(
+                    j,
+                    spectrum,
+                    query,
+                    l,
+                    &mut corr[..offsets],
+                    conv,
+                    buf,
+                    scratch,
+                );
             }
-            1.0 / m as f64
+            1.0 / (2 * t.block()) as f64
         } else {
             buf.clear();
             buf.extend(qz.iter().map(|&x| Complex::new(x, 0.0)));

@@ -7,7 +7,8 @@
 //! samples `p` (a *piece*: `[b_{i-1}, b_i)`) are correlated with every block
 //! by one multiply and one inverse FFT per block, both directions at once:
 //! `IFFT(A P̄ + i A P)` carries the correlation in its real part and the
-//! convolution in its imaginary part (as in [`crate::matching::zncc`]).
+//! convolution in its imaginary part. The block arithmetic is the batch
+//! search's own ([`crate::matching::blocks`]); only the caching differs.
 //! The piece's raw correlations are cached:
 //!
 //! `G_i[e] = Σ_j p_j a[e + j]` (forward, `e` = target of the piece's first
@@ -20,10 +21,9 @@
 //! `N_max` full correlations. Means and deviations come from prefix sums, so
 //! the ZNCC equals the batch correlator's (to `f32` rounding).
 
-use std::sync::Arc;
-
 use rustfft::num_complex::Complex;
-use rustfft::{Fft, FftPlanner};
+
+use crate::matching::blocks::BlockTransform;
 
 /// A piece's cached raw correlations with the history as it was then.
 #[derive(Debug, Clone)]
@@ -40,9 +40,7 @@ pub struct Piece {
 
 /// Block spectra of the history and its prefix sums.
 pub struct BlockCorrelator {
-    block: usize,
-    fft: Arc<dyn Fft<f32>>,
-    ifft: Arc<dyn Fft<f32>>,
+    transform: BlockTransform<f32>,
     spectra: Vec<Vec<Complex<f32>>>,
     scratch: Vec<Complex<f32>>,
     /// Prefix sums of the values and their squares.
@@ -54,19 +52,10 @@ pub struct BlockCorrelator {
 impl BlockCorrelator {
     /// Blocks of `block` samples.
     pub fn new(block: usize) -> Self {
-        let block = block.max(16);
-        let mut planner = FftPlanner::new();
-        let fft = planner.plan_fft_forward(2 * block);
-        let ifft = planner.plan_fft_inverse(2 * block);
-        let scratch = vec![
-            Complex::new(0.0, 0.0);
-            fft.get_inplace_scratch_len()
-                .max(ifft.get_inplace_scratch_len())
-        ];
+        let transform = BlockTransform::new(block.max(16));
+        let scratch = vec![Complex::new(0.0, 0.0); transform.scratch_len()];
         BlockCorrelator {
-            block,
-            fft,
-            ifft,
+            transform,
             spectra: Vec::new(),
             scratch,
             prefix: vec![0.0],
@@ -77,7 +66,7 @@ impl BlockCorrelator {
     /// Longest piece the block transform handles (longer ones are correlated
     /// directly).
     pub fn max_piece(&self) -> usize {
-        self.block + 1
+        self.transform.max_query()
     }
 
     /// Takes in the history's new values (`a` is the whole history).
@@ -87,18 +76,14 @@ impl BlockCorrelator {
             self.prefix.push(self.prefix.last().unwrap() + x);
             self.prefix_sq.push(self.prefix_sq.last().unwrap() + x * x);
         }
-        while (self.spectra.len() + 1) * self.block <= a.len() {
+        let block = self.transform.block();
+        while (self.spectra.len() + 1) * block <= a.len() {
             let b = self.spectra.len();
-            let spec = self.spectrum(&a[b * self.block..(b + 1) * self.block]);
+            let spec = self
+                .transform
+                .spectrum(&a[b * block..(b + 1) * block], &mut self.scratch);
             self.spectra.push(spec);
         }
-    }
-
-    fn spectrum(&mut self, x: &[f32]) -> Vec<Complex<f32>> {
-        let mut buf: Vec<Complex<f32>> = x.iter().map(|&v| Complex::new(v, 0.0)).collect();
-        buf.resize(2 * self.block, Complex::new(0.0, 0.0));
-        self.fft.process_with_scratch(&mut buf, &mut self.scratch);
-        buf
     }
 
     /// Raw correlations of the piece `a[start..start+len]` with all of `a`.
@@ -128,40 +113,33 @@ impl BlockCorrelator {
                 reversed,
             };
         }
-        let m = 2 * self.block;
-        let mut pf: Vec<Complex<f32>> = p.iter().map(|&v| Complex::new(v, 0.0)).collect();
-        pf.resize(m, Complex::new(0.0, 0.0));
-        self.fft.process_with_scratch(&mut pf, &mut self.scratch);
-        let blocks = h.div_ceil(self.block);
-        let norm = 1.0 / m as f32;
-        let i = Complex::new(0.0f32, 1.0);
-        let mut buf = vec![Complex::new(0.0f32, 0.0); m];
-        for b in 0..blocks {
-            let tail;
-            let spec: &[Complex<f32>] = if b < self.spectra.len() {
-                &self.spectra[b]
-            } else {
-                tail = self.spectrum(&a[b * self.block..h.min((b + 1) * self.block)]);
-                &tail
-            };
-            for k in 0..m {
-                let (x, q) = (spec[k], pf[k]);
-                buf[k] = x * q.conj() + i * (x * q);
-            }
-            self.ifft.process_with_scratch(&mut buf, &mut self.scratch);
-            let base = (b * self.block) as i64;
-            // Forward: e - base in [-(len-1), B-1].
-            let lo = (base - (len as i64 - 1)).max(0);
-            let hi = (base + self.block as i64 - 1).min(h as i64 - 1);
-            for e in lo..=hi {
-                let k = (e - base).rem_euclid(m as i64) as usize;
-                forward[e as usize] += buf[k].re * norm;
-            }
-            // Reversed: e - base in [0, B + len - 2].
-            let hi = (base + (self.block + len) as i64 - 2).min(h as i64 - 1);
-            for e in base..=hi {
-                reversed[e as usize] -= buf[(e - base) as usize].im * norm;
-            }
+        let t = &self.transform;
+        let block = t.block();
+        // The inverse transform's 1/M folded into the piece's spectrum.
+        let mut query = Vec::new();
+        t.spectrum_into(p, 1.0 / (2 * block) as f32, &mut query, &mut self.scratch);
+        let mut buf = Vec::new();
+        // The finished blocks' spectra, and those of the rest (the open
+        // tail) made for this piece only.
+        let rest: Vec<_> = a[(self.spectra.len() * block).min(h)..]
+            .chunks(block)
+            .map(|chunk| t.spectrum(chunk, &mut self.scratch))
+            .collect();
+        for (j, spectrum) in self.spectra.iter().chain(&rest).enumerate() {
+            t.add_block(
+                j,
+                spectrum,
+                &query,
+                len,
+                &mut forward,
+                &mut reversed,
+                &mut buf,
+                &mut self.scratch,
+            );
+        }
+        // `add_block` adds the convolution; the reversed query negates it.
+        for r in &mut reversed {
+            *r = -*r;
         }
         Piece {
             start,
