@@ -46,11 +46,9 @@ pub fn random_similarity(rng: &mut impl Rng, extent: f64) -> Similarity3 {
     }
 }
 
-/// Angle (degrees) of the rotation taking `r_true` to `r_est`:
-/// `acos((tr(R_est R_true^T) - 1) / 2)`.
+/// Angle (degrees) of the rotation taking `r_true` to `r_est`.
 pub fn rotation_error_deg(r_est: &Matrix3<f64>, r_true: &Matrix3<f64>) -> f64 {
-    let c = (((r_est * r_true.transpose()).trace() - 1.0) / 2.0).clamp(-1.0, 1.0);
-    c.acos().to_degrees()
+    crate::geometry::similarity::angle_between(r_est, r_true).to_degrees()
 }
 
 /// Relative scale error in percent: `100 |s_est / s_true - 1|`.

@@ -184,18 +184,21 @@ impl Similarity3 {
         })
     }
 
-    /// Angle in radians of the rotation taking `other`'s to this one's,
-    /// `acos((tr(R Rₒᵀ) - 1) / 2)`.
+    /// Angle in radians of the rotation taking `other`'s to this one's.
     pub fn angle_to(&self, other: &Similarity3) -> f64 {
-        (((self.rotation * other.rotation.transpose()).trace() - 1.0) / 2.0)
-            .clamp(-1.0, 1.0)
-            .acos()
+        angle_between(&self.rotation, &other.rotation)
     }
 
     /// Rotation angle in radians (the geodesic distance to the identity).
     pub fn angle(&self) -> f64 {
-        ((self.rotation.trace() - 1.0) / 2.0)
-            .clamp(-1.0, 1.0)
-            .acos()
+        angle_between(&self.rotation, &Matrix3::identity())
     }
+}
+
+/// Angle in radians of the rotation taking `b` to `a`,
+/// `acos((tr(a bᵀ) - 1) / 2)` (clamped against rounding).
+pub fn angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
+    (((a * b.transpose()).trace() - 1.0) / 2.0)
+        .clamp(-1.0, 1.0)
+        .acos()
 }
