@@ -1,6 +1,8 @@
 //! Figures of a merge (like Fig. 4/5 of the paper): path A and path B,
 //! already mapped into A's frame, drawn in one top view, with the common
-//! part and the correspondences of the hypothesis.
+//! part and the correspondences of the hypothesis; and of the loops of one
+//! path: the path, each loop's query and match parts in its own colour, and
+//! its correspondences.
 //!
 //! The view is an orthographic projection onto A's best-fit plane. The plane
 //! is the span of the two largest principal axes of A's positions
@@ -50,6 +52,59 @@ pub fn plot_merge(
     b_in_a: &[Vector3<f64>],
     hypothesis: &Hypothesis,
 ) -> Result<()> {
+    render(
+        out,
+        &Figure::Merge {
+            a,
+            b_in_a,
+            h: hypothesis,
+        },
+    )
+}
+
+/// Draws `path` and its `loops` (each query part, match part and
+/// correspondences in the loop's own colour, best first) to `out` (`.svg`
+/// or `.png`), in the path's own frame.
+pub fn plot_loops(out: &Path, path: &[Vector3<f64>], loops: &[Hypothesis]) -> Result<()> {
+    render(out, &Figure::Loops { path, loops })
+}
+
+/// What a figure shows.
+enum Figure<'a> {
+    /// A, B in A's frame, and the hypothesis that put it there.
+    Merge {
+        a: &'a [Vector3<f64>],
+        b_in_a: &'a [Vector3<f64>],
+        h: &'a Hypothesis,
+    },
+    /// One path and its loops.
+    Loops {
+        path: &'a [Vector3<f64>],
+        loops: &'a [Hypothesis],
+    },
+}
+
+impl Figure<'_> {
+    /// The path that sets the view and must not be empty, and its name.
+    fn reference(&self) -> (&[Vector3<f64>], &'static str) {
+        match self {
+            Figure::Merge { a, .. } => (a, "path A"),
+            Figure::Loops { path, .. } => (path, "the path"),
+        }
+    }
+
+    /// Every point drawn.
+    fn points(&self) -> impl Iterator<Item = &Vector3<f64>> {
+        let (first, second): (&[Vector3<f64>], &[Vector3<f64>]) = match self {
+            Figure::Merge { a, b_in_a, .. } => (a, b_in_a),
+            Figure::Loops { path, .. } => (path, &[]),
+        };
+        first.iter().chain(second)
+    }
+}
+
+/// Checks the figure and writes it with the backend its extension names.
+fn render(out: &Path, figure: &Figure) -> Result<()> {
     let name = out.display().to_string();
     let ext = out
         .extension()
@@ -61,17 +116,15 @@ pub fn plot_merge(
             "figure file name must end in .svg or .png",
         ));
     }
-    if a.is_empty() {
-        return Err(Error::input(name, "path A has no poses to plot"));
+    let (reference, what) = figure.reference();
+    if reference.is_empty() {
+        return Err(Error::input(name, format!("{what} has no poses to plot")));
     }
-    if a.iter()
-        .chain(b_in_a)
-        .any(|p| !p.iter().all(|v| v.is_finite()))
-    {
+    if figure.points().any(|p| !p.iter().all(|v| v.is_finite())) {
         return Err(Error::input(name, "a position to plot is not finite"));
     }
     register_font().map_err(|m| Error::input(&name, m))?;
-    let view = View::of(a);
+    let view = View::of(reference);
     let size = (
         PLOT_SIDE + 2 * MARGIN + Y_LABELS,
         PLOT_SIDE + 2 * MARGIN + X_LABELS + TITLE,
@@ -80,17 +133,13 @@ pub fn plot_merge(
         draw(
             SVGBackend::new(out, size).into_drawing_area(),
             &view,
-            a,
-            b_in_a,
-            hypothesis,
+            figure,
         )
     } else {
         draw(
             BitMapBackend::new(out, size).into_drawing_area(),
             &view,
-            a,
-            b_in_a,
-            hypothesis,
+            figure,
         )
     };
     drawn.map_err(|message| Error::Io {
@@ -196,47 +245,36 @@ fn part(path: &[(f64, f64)], range: [usize; 2]) -> Vec<(f64, f64)> {
 /// One line of the figure: points, colour, stroke width, legend label.
 type Series<'a> = (&'a [(f64, f64)], RGBColor, u32, &'a str);
 
+/// Colours of successive loops (best first), repeated past the tenth.
+const LOOP_COLOURS: [RGBColor; 10] = [
+    RGBColor(220, 30, 30),
+    RGBColor(0, 90, 255),
+    RGBColor(0, 150, 0),
+    RGBColor(200, 0, 200),
+    RGBColor(255, 140, 0),
+    RGBColor(0, 170, 170),
+    RGBColor(140, 80, 20),
+    RGBColor(120, 120, 0),
+    RGBColor(90, 0, 160),
+    RGBColor(255, 60, 150),
+];
+const PATH_COLOUR: RGBColor = RGBColor(160, 160, 160);
+
 /// Draws the figure on `root`; errors as text (the backend's error types
 /// differ).
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     view: &View,
-    a: &[Vector3<f64>],
-    b_in_a: &[Vector3<f64>],
-    h: &Hypothesis,
+    figure: &Figure,
 ) -> std::result::Result<(), String> {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let a2: Vec<(f64, f64)> = a.iter().map(|p| view.project(p)).collect();
-    let b2: Vec<(f64, f64)> = b_in_a.iter().map(|p| view.project(p)).collect();
-    let all: Vec<(f64, f64)> = a2.iter().chain(&b2).copied().collect();
+    let all: Vec<(f64, f64)> = figure.points().map(|p| view.project(p)).collect();
     let (x_range, y_range) = equal_ranges(&all);
+    let font = ("sans-serif", 20).into_font().color(&BLACK);
+    let small = ("sans-serif", 16).into_font().color(&BLACK);
 
     root.fill(&WHITE).map_err(err)?;
     let (title, body) = root.split_vertically(TITLE);
-    let line1 = format!(
-        "score {:.3}   scale {:.4}   rmse {:.3} (A units){}",
-        h.score,
-        h.scale,
-        h.rmse,
-        if h.reversed { "   B reversed" } else { "" }
-    );
-    let line2 = format!(
-        "common part: A poses {}-{} ~ B poses {}-{}, {} correspondences",
-        h.a_range[0],
-        h.a_range[1],
-        h.b_range[0],
-        h.b_range[1],
-        h.correspondences.len()
-    );
-    let font = ("sans-serif", 20).into_font().color(&BLACK);
-    title
-        .draw_text(&line1, &font, (MARGIN as i32, 8))
-        .map_err(err)?;
-    let small = ("sans-serif", 16).into_font().color(&BLACK);
-    title
-        .draw_text(&line2, &small, (MARGIN as i32, 34))
-        .map_err(err)?;
-
     let mut chart = ChartBuilder::on(&body)
         .margin(MARGIN)
         .x_label_area_size(X_LABELS)
@@ -251,14 +289,15 @@ fn draw<DB: DrawingBackend>(
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(err)?;
-
-    let series: [Series; 4] = [
-        (&a2, A_COLOUR, 2, "A"),
-        (&b2, B_COLOUR, 2, "B (in A's frame)"),
-        (&part(&a2, h.a_range), A_COMMON, 7, "A common part"),
-        (&part(&b2, h.b_range), B_COMMON, 3, "B common part"),
-    ];
-    for (points, colour, width, _) in &series {
+    let Drawing {
+        lines,
+        legend,
+        heading,
+    } = match figure {
+        Figure::Merge { a, b_in_a, h } => merge_drawing(view, a, b_in_a, h),
+        Figure::Loops { path, loops } => loops_drawing(view, path, loops),
+    };
+    for (points, colour, width) in &lines {
         chart
             .draw_series(LineSeries::new(
                 points.iter().copied(),
@@ -266,36 +305,17 @@ fn draw<DB: DrawingBackend>(
             ))
             .map_err(err)?;
     }
-
-    // Correspondences on top: under the wide common parts they would vanish.
-    let step = h
-        .correspondences
-        .len()
-        .div_ceil(MAX_CORRESPONDENCE_LINES)
-        .max(1);
-    let links: Vec<[(f64, f64); 2]> = h
-        .correspondences
-        .iter()
-        .step_by(step)
-        .filter_map(|&(i, j)| Some([*a2.get(i)?, *b2.get(j)?]))
-        .collect();
-    chart
-        .draw_series(
-            links
-                .iter()
-                .map(|l| PathElement::new(l.to_vec(), BLACK.stroke_width(1))),
-        )
+    title
+        .draw_text(&heading[0], &font, (MARGIN as i32, 8))
         .map_err(err)?;
-
+    title
+        .draw_text(&heading[1], &small, (MARGIN as i32, 34))
+        .map_err(err)?;
     // The legend goes in the title band: inside the chart it would hide
     // part of a path, wherever it were put.
-    let entries = series
-        .iter()
-        .map(|(_, colour, width, label)| (*colour, (*width).clamp(2, 5), *label))
-        .chain([(BLACK, 1, "correspondences")]);
     let mut x = MARGIN as i32;
     let y = 72;
-    for (colour, width, label) in entries {
+    for (colour, width, label) in legend {
         title
             .draw(&PathElement::new(
                 vec![(x, y), (x + 24, y)],
@@ -303,12 +323,136 @@ fn draw<DB: DrawingBackend>(
             ))
             .map_err(err)?;
         title
-            .draw_text(label, &small, (x + 30, y - 8))
+            .draw_text(&label, &small, (x + 30, y - 8))
             .map_err(err)?;
-        let (w, _) = title.estimate_text_size(label, &small).map_err(err)?;
+        let (w, _) = title.estimate_text_size(&label, &small).map_err(err)?;
         x += 30 + w as i32 + 24;
     }
     root.present().map_err(err)
+}
+
+/// One drawn line: points, colour, stroke width.
+type Line = (Vec<(f64, f64)>, RGBColor, u32);
+
+/// One legend entry: colour, stroke width, label.
+type LegendEntry = (RGBColor, u32, String);
+
+/// What one figure draws: its lines in drawing order, its legend and its
+/// two title lines.
+struct Drawing {
+    lines: Vec<Line>,
+    legend: Vec<LegendEntry>,
+    heading: [String; 2],
+}
+
+/// The projection of `points` into the figure.
+fn project(view: &View, points: &[Vector3<f64>]) -> Vec<(f64, f64)> {
+    points.iter().map(|p| view.project(p)).collect()
+}
+
+/// A merge: A, B in A's frame, both common parts and the correspondences.
+fn merge_drawing(
+    view: &View,
+    a: &[Vector3<f64>],
+    b_in_a: &[Vector3<f64>],
+    h: &Hypothesis,
+) -> Drawing {
+    let (a2, b2) = (project(view, a), project(view, b_in_a));
+    let series: [Series; 4] = [
+        (&a2, A_COLOUR, 2, "A"),
+        (&b2, B_COLOUR, 2, "B (in A's frame)"),
+        (&part(&a2, h.a_range), A_COMMON, 7, "A common part"),
+        (&part(&b2, h.b_range), B_COMMON, 3, "B common part"),
+    ];
+    let legend: Vec<LegendEntry> = series
+        .iter()
+        .map(|(_, colour, width, label)| (*colour, (*width).clamp(2, 5), label.to_string()))
+        .chain([(BLACK, 1, "correspondences".to_string())])
+        .collect();
+    let mut lines: Vec<_> = series
+        .iter()
+        .map(|(points, colour, width, _)| (points.to_vec(), *colour, *width))
+        .collect();
+    lines.extend(links(h, &a2, &b2).map(|l| (l.to_vec(), BLACK, 1)));
+    let heading = [
+        format!(
+            "score {:.3}   scale {:.4}   rmse {:.3} (A units){}",
+            h.score,
+            h.scale,
+            h.rmse,
+            if h.reversed { "   B reversed" } else { "" }
+        ),
+        format!(
+            "common part: A poses {}-{} ~ B poses {}-{}, {} correspondences",
+            h.a_range[0],
+            h.a_range[1],
+            h.b_range[0],
+            h.b_range[1],
+            h.correspondences.len()
+        ),
+    ];
+    Drawing {
+        lines,
+        legend,
+        heading,
+    }
+}
+
+/// Loops: the path, and per loop its two parts and correspondences.
+fn loops_drawing(view: &View, path: &[Vector3<f64>], loops: &[Hypothesis]) -> Drawing {
+    let p2 = project(view, path);
+    let mut lines = vec![(p2.clone(), PATH_COLOUR, 2)];
+    let colour = |i: usize| LOOP_COLOURS[i % LOOP_COLOURS.len()];
+    // The best loop drawn last, on top; each query (later) part
+    // wide, the part it revisits thinner and lighter.
+    for (i, h) in loops.iter().enumerate().rev() {
+        lines.push((part(&p2, h.a_range), colour(i), 6));
+        lines.push((part(&p2, h.b_range), lighter(colour(i)), 3));
+        lines.extend(links(h, &p2, &p2).map(|l| (l.to_vec(), colour(i), 1)));
+    }
+    let legend = loops
+        .iter()
+        .enumerate()
+        .map(|(i, h)| (colour(i), 4, format!("#{}", h.rank)))
+        .collect();
+    let scores: Vec<String> = loops.iter().map(|h| format!("{:.2}", h.score)).collect();
+    let heading = [
+        format!(
+            "{} loops of {} poses: wide, the later part; thin, the part it revisits",
+            loops.len(),
+            path.len()
+        ),
+        format!("scores, best first: {}", scores.join("  ")),
+    ];
+    Drawing {
+        lines,
+        legend,
+        heading,
+    }
+}
+
+/// `c` halfway to white.
+fn lighter(c: RGBColor) -> RGBColor {
+    let half = |v: u8| ((v as u16 + 255) / 2) as u8;
+    RGBColor(half(c.0), half(c.1), half(c.2))
+}
+
+/// At most [`MAX_CORRESPONDENCE_LINES`] of `h`'s correspondences, evenly
+/// spaced, as segments from A's point to B's.
+fn links<'a>(
+    h: &'a Hypothesis,
+    a2: &'a [(f64, f64)],
+    b2: &'a [(f64, f64)],
+) -> impl Iterator<Item = [(f64, f64); 2]> + 'a {
+    let step = h
+        .correspondences
+        .len()
+        .div_ceil(MAX_CORRESPONDENCE_LINES)
+        .max(1);
+    h.correspondences
+        .iter()
+        .step_by(step)
+        .filter_map(|&(i, j)| Some([*a2.get(i)?, *b2.get(j)?]))
 }
 
 #[cfg(test)]

@@ -12,6 +12,17 @@ fn turnprint(args: &[&str]) -> Output {
         .expect("turnprint runs")
 }
 
+/// `turnprint` with these arguments, which must succeed.
+fn turnprint_ok(args: &[&str]) -> Output {
+    let out = turnprint(args);
+    assert!(
+        out.status.success(),
+        "turnprint {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, text).expect("temp file");
@@ -206,11 +217,32 @@ fn loops_json_follows_the_contract() {
 }
 
 #[test]
+fn loops_draws_a_figure_of_the_loops_it_prints() {
+    let dir = tempfile::tempdir().unwrap();
+    let fig = dir.path().join("loops.svg");
+    let out = turnprint_ok(&[
+        "loops",
+        "tests/data/00.txt",
+        "--top",
+        "3",
+        "--plot",
+        fig.to_str().unwrap(),
+    ]);
+    let svg = std::fs::read_to_string(&fig).unwrap();
+    assert!(svg.contains("3 loops of 4541 poses"), "title missing");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("figure of 3 loops"));
+    // A figure name the figure cannot have: an error, and no table.
+    let out = turnprint(&["loops", "tests/data/00.txt", "--plot", "x.pdf"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains(".svg or .png"));
+}
+
+#[test]
 fn merge_writes_tum_and_a_figure() {
     let dir = tempfile::tempdir().unwrap();
     let out_tum = dir.path().join("merged.tum");
     let fig = dir.path().join("merged.svg");
-    let out = turnprint(&[
+    turnprint_ok(&[
         "merge",
         "tests/data/00.txt",
         "tests/data/00_orbslam2_tum.txt",
@@ -219,11 +251,6 @@ fn merge_writes_tum_and_a_figure() {
         "--plot",
         fig.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let merged = turnprint::io::read_trajectory(&out_tum, turnprint::io::Format::Tum).unwrap();
     assert_eq!(merged.len(), 2 * 4541);
     // B lands on A: inside the common part (ORB-SLAM2's scale drifts, so

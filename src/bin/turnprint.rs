@@ -66,6 +66,9 @@ enum Command {
         /// precise list (EVALUATION.md has the trade-off).
         #[arg(long, default_value_t = 0.0)]
         min_score: f64,
+        /// Also draw the path and its loops (SVG or PNG by extension).
+        #[arg(long)]
+        plot: Option<PathBuf>,
     },
     /// Writes A and B (mapped into A's frame by the best hypothesis) as one TUM file.
     Merge {
@@ -145,7 +148,15 @@ fn main() -> ExitCode {
             format,
             no_prior,
             min_score,
-        } => run_loops(&a, json, top, format, no_prior, min_score),
+            plot,
+        } => run_loops(
+            &a,
+            json,
+            top,
+            format,
+            (no_prior, min_score),
+            plot.as_deref(),
+        ),
         Command::Merge {
             a,
             b,
@@ -332,8 +343,8 @@ fn run_loops(
     json: bool,
     top: usize,
     fa: Format,
-    no_prior: bool,
-    min_score: f64,
+    (no_prior, min_score): (bool, f64),
+    plot: Option<&Path>,
 ) -> Result<(), Failure> {
     let progress = Progress::new();
     progress.stage("reading");
@@ -351,6 +362,10 @@ fn run_loops(
     progress.stage("searching loops");
     let loops = pipeline::find_loops_prepared(&pa, &config);
     drop(progress);
+    if let Some(fig) = plot {
+        turnprint::plot::plot_loops(fig, &ta.positions(), &loops).map_err(|e| e.to_string())?;
+        eprintln!("figure of {} loops in {}", loops.len(), fig.display());
+    }
     if json {
         let entries: Vec<serde_json::Value> = loops
             .iter()
