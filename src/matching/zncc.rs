@@ -25,8 +25,9 @@ use rustfft::{Fft, FftPlanner};
 
 use super::blocks::BlockTransform;
 
-/// Below this fraction of the signature's variance a window is flat: no score.
-const FLAT_FRACTION: f64 = 1e-4;
+/// Below this fraction of the signature's variance a window is flat: no
+/// score (the online detector's scan uses the same).
+pub const FLAT_FRACTION: f64 = 1e-4;
 
 /// Smallest block of the block-wise correlation.
 const MIN_BLOCK: usize = 64;

@@ -37,9 +37,6 @@ const DRIFT_SCALE: f64 = 1.5;
 /// it): 0.75 lost them. Two thirds sits between the stubs and the shortest
 /// true candidates seen, on a ratio scale.
 const DRIFT_MIN_WINDOW: f64 = 2.0 / 3.0;
-/// Below this fraction of the history's variance a window is flat (as in
-/// the batch correlator).
-const FLAT_FRACTION: f64 = 1e-4;
 /// Track parameters the search needs.
 #[derive(Debug, Clone, Copy)]
 pub struct Frame {
@@ -125,7 +122,7 @@ impl Searcher {
             let (s, sq) = self.correlator.window(0, hist);
             (sq / hist as f64 - (s / hist as f64).powi(2)).max(0.0)
         };
-        let flat = FLAT_FRACTION * total_var;
+        let flat = crate::matching::zncc::FLAT_FRACTION * total_var;
         // The queries of the newest 1..=max_n pieces, as far as the history
         // leaves room for them outside the query's own neighbourhood.
         let mut queries = Vec::new();
