@@ -100,23 +100,10 @@ mod tests {
     /// Out along x, around a 100 m square, back along the start 2 m to the
     /// side, with 1 m steps; then scaled by `s`.
     fn loop_path(s: f64) -> Vec<Vector3<f64>> {
-        let mut p = Vec::new();
-        for i in 0..100 {
-            p.push(Vector3::new(i as f64, 0.0, 0.0));
-        }
-        for i in 0..100 {
-            p.push(Vector3::new(100.0, i as f64, 0.0));
-        }
-        for i in 0..100 {
-            p.push(Vector3::new(100.0 - i as f64, 100.0, 0.0));
-        }
-        for i in 0..100 {
-            p.push(Vector3::new(0.0, 100.0 - i as f64, 0.0));
-        }
-        for i in 0..80 {
-            p.push(Vector3::new(i as f64, 2.0, 0.0));
-        }
-        p.into_iter().map(|v| v * s).collect()
+        crate::eval::test_paths::square_loop(80, 2.0)
+            .into_iter()
+            .map(|v| v * s)
+            .collect()
     }
 
     #[test]

@@ -16,6 +16,28 @@ pub mod revisits;
 pub mod similarity;
 pub mod windows;
 
+/// Paths shared by the evaluation's unit tests.
+#[cfg(test)]
+pub(crate) mod test_paths {
+    use nalgebra::Vector3;
+
+    /// A 100-unit straight along x, a square loop of side 100 back to the
+    /// start, then `back` units of the straight again, `offset` to its side:
+    /// unit steps.
+    pub fn square_loop(back: usize, offset: f64) -> Vec<Vector3<f64>> {
+        let side = |k: usize, i: f64| match k {
+            0 => Vector3::new(i, 0.0, 0.0),
+            1 => Vector3::new(100.0, i, 0.0),
+            2 => Vector3::new(100.0 - i, 100.0, 0.0),
+            _ => Vector3::new(0.0, 100.0 - i, 0.0),
+        };
+        (0..4)
+            .flat_map(|k| (0..100).map(move |i| side(k, i as f64)))
+            .chain((0..back).map(|i| Vector3::new(i as f64, offset, 0.0)))
+            .collect()
+    }
+}
+
 use std::path::PathBuf;
 
 use rand::{rngs::StdRng, Rng, SeedableRng};

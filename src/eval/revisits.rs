@@ -109,23 +109,7 @@ mod tests {
     /// A 100 m straight, a square loop of side 100 m back to the start,
     /// then the first 60 m of the straight again: 1 m steps.
     fn loop_path() -> Vec<Vector3<f64>> {
-        let mut p = Vec::new();
-        for i in 0..100 {
-            p.push(Vector3::new(i as f64, 0.0, 0.0));
-        }
-        for i in 0..100 {
-            p.push(Vector3::new(100.0, i as f64, 0.0));
-        }
-        for i in 0..100 {
-            p.push(Vector3::new(100.0 - i as f64, 100.0, 0.0));
-        }
-        for i in 0..100 {
-            p.push(Vector3::new(0.0, 100.0 - i as f64, 0.0));
-        }
-        for i in 0..=60 {
-            p.push(Vector3::new(i as f64, 0.0, 0.0));
-        }
-        p
+        crate::eval::test_paths::square_loop(61, 0.0)
     }
 
     #[test]
