@@ -95,7 +95,8 @@ enum Command {
     },
     /// Replays A one pose at a time through the online detector (JSON Lines).
     Stream {
-        /// The path.
+        /// The path; `-` reads poses from stdin as they arrive (a pipe from
+        /// a running odometry process) and writes each event at once.
         a: PathBuf,
         /// JSON Lines on stdout (the only output form).
         #[arg(long)]
@@ -189,7 +190,13 @@ fn main() -> ExitCode {
                 drift_probe: !no_drift_probe,
                 ..Default::default()
             };
-            if verify {
+            if verify && a == Path::new("-") {
+                Err(
+                    "stream --verify renders keyframes along the whole path: give it a file, \
+                     not stdin (-)"
+                        .into(),
+                )
+            } else if verify {
                 run_stream_verified(&a, &config, format, truth, &cameras, plot, json)
             } else {
                 run_stream(&a, &config, format)
@@ -488,7 +495,12 @@ fn run_stream(
     format: Format,
 ) -> Result<(), Failure> {
     let mut out = std::io::stdout().lock();
-    turnprint::online::cli::stream(a, format, config, &mut out)?;
+    if a == Path::new("-") {
+        let stdin = std::io::BufReader::new(std::io::stdin());
+        turnprint::online::cli::stream_lines(stdin, "<stdin>", format, config, &mut out)?;
+    } else {
+        turnprint::online::cli::stream(a, format, config, &mut out)?;
+    }
     Ok(())
 }
 

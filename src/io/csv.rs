@@ -11,7 +11,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::{clip, number, parse_error, pose};
+use super::{clip, number, parse_error, pose, LineFormat};
 use crate::{Pose, Result};
 
 /// Column positions of the quantities we read, and the time unit in seconds.
@@ -34,28 +34,27 @@ enum Role {
     Other,
 }
 
-/// Parses CSV text into poses (no orientation).
-pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty());
-    // Comment lines before the header are skipped unless they are the header.
-    let (header_line, columns) = loop {
-        let Some((line, content)) = lines.next() else {
-            return Ok(Vec::new());
+/// CSV lines (no orientation): the header, then the data.
+#[derive(Default)]
+pub(super) struct Csv {
+    /// The header's line and columns, once read.
+    header: Option<(usize, Columns)>,
+}
+
+impl LineFormat for Csv {
+    fn line(&mut self, line: usize, content: &str, path: &Path) -> Result<Option<Pose>> {
+        let Some((header_line, columns)) = &self.header else {
+            // Comment lines before the header are skipped unless they are
+            // the header.
+            match header_columns(content) {
+                Ok(columns) => self.header = Some((line, columns)),
+                Err(_) if content.starts_with('#') => {}
+                Err(m) => return Err(parse_error(path, line, m)),
+            }
+            return Ok(None);
         };
-        match header_columns(content) {
-            Ok(columns) => break (line, columns),
-            Err(_) if content.starts_with('#') => continue,
-            Err(m) => return Err(parse_error(path, line, m)),
-        }
-    };
-    let mut poses = Vec::new();
-    for (line, content) in lines {
         if content.starts_with('#') {
-            continue;
+            return Ok(None);
         }
         let fields: Vec<&str> = if columns.comma {
             content.split(',').map(str::trim).collect()
@@ -82,13 +81,12 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
             Some(i) => get(i)?,
             None => 0.0,
         };
-        poses.push(pose(
+        Ok(Some(pose(
             t,
             Vector3::new(get(columns.x)?, get(columns.y)?, z),
             None,
-        ));
+        )))
     }
-    Ok(poses)
 }
 
 /// Reads the header line; an error when it names no `x` and `y` columns.

@@ -5,13 +5,17 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::{data_lines, number, parse_error, pose, quaternion};
+use super::{number, parse_error, pose, quaternion, LineFormat};
 use crate::{Pose, Result};
 
-/// Parses EuRoC CSV text into poses; timestamps become seconds.
-pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
-    let mut poses = Vec::new();
-    for (line, content) in data_lines(text) {
+/// EuRoC lines; timestamps become seconds.
+pub(super) struct Euroc;
+
+impl LineFormat for Euroc {
+    fn line(&mut self, line: usize, content: &str, path: &Path) -> Result<Option<Pose>> {
+        if content.starts_with('#') {
+            return Ok(None);
+        }
         let fields: Vec<&str> = content.split(',').map(str::trim).collect();
         if fields.len() < 8 {
             return Err(parse_error(
@@ -29,9 +33,8 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
             *slot = number(fields[i + 1], i + 2).map_err(|m| parse_error(path, line, m))?;
         }
         let q = quaternion(v[3], v[4], v[5], v[6]).map_err(|m| parse_error(path, line, m))?;
-        poses.push(pose(Some(t), Vector3::new(v[0], v[1], v[2]), Some(q)));
+        Ok(Some(pose(Some(t), Vector3::new(v[0], v[1], v[2]), Some(q))))
     }
-    Ok(poses)
 }
 
 /// Seconds from a nanosecond timestamp, exact in the integer part: EuRoC

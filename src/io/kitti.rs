@@ -9,13 +9,17 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
-use super::{data_lines, numbers, parse_error, pose, split_ws};
+use super::{numbers, parse_error, pose, split_ws, LineFormat};
 use crate::{Pose, Result};
 
-/// Parses KITTI text into poses (no timestamps).
-pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
-    let mut poses = Vec::new();
-    for (line, content) in data_lines(text) {
+/// KITTI lines (no timestamps).
+pub(super) struct Kitti;
+
+impl LineFormat for Kitti {
+    fn line(&mut self, line: usize, content: &str, path: &Path) -> Result<Option<Pose>> {
+        if content.starts_with('#') {
+            return Ok(None);
+        }
         let fields = split_ws(content);
         if fields.len() != 12 {
             return Err(parse_error(
@@ -31,9 +35,8 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
         #[allow(non_snake_case)]
         let world_R_cam = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
         let position = Vector3::new(v[3], v[7], v[11]);
-        poses.push(pose(None, position, nearest_rotation(&world_R_cam)));
+        Ok(Some(pose(None, position, nearest_rotation(&world_R_cam))))
     }
-    Ok(poses)
 }
 
 /// The rotation nearest to `m`, or `None` when `m` is too far from one to

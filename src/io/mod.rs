@@ -10,6 +10,7 @@ mod detect;
 mod euroc;
 mod gpx;
 mod kitti;
+mod lines;
 mod tum;
 mod writer;
 mod xyz;
@@ -21,6 +22,7 @@ use std::str::FromStr;
 use crate::{Error, Pose, Result, Trajectory};
 
 pub use gpx::{geodetic_to_enu, Geodetic};
+pub use lines::PoseLines;
 pub use writer::{write_tum, write_tum_to};
 
 /// A trajectory file format (`--format`).
@@ -123,14 +125,16 @@ pub fn parse_trajectory(text: &str, format: Format, path: &Path) -> Result<Traje
         Format::Auto => detect::detect(text, path)?,
         f => f,
     };
-    let poses = match format {
-        Format::Auto => unreachable!("detect never answers Auto"),
-        Format::Tum => tum::parse(text, path)?,
-        Format::Kitti => kitti::parse(text, path)?,
-        Format::Euroc => euroc::parse(text, path)?,
-        Format::Xyz => xyz::parse(text, path)?,
-        Format::Gpx => gpx::parse(text, path)?,
-        Format::Csv => csv::parse(text, path)?,
+    let poses = match line_format(format) {
+        Some(mut reader) => {
+            let mut poses = Vec::new();
+            for (line, content) in content_lines(text) {
+                poses.extend(reader.line(line, content, path)?);
+            }
+            poses
+        }
+        // GPX (detection never answers `Auto`).
+        None => gpx::parse(text, path)?,
     };
     if poses.is_empty() {
         let last_line = text.lines().count().max(1);
@@ -142,6 +146,28 @@ pub fn parse_trajectory(text: &str, format: Format, path: &Path) -> Result<Traje
     })
 }
 
+/// A line-oriented format read one non-blank, trimmed line at a time (`#`
+/// lines included: a CSV header may be one), so that whole files and
+/// streams ([`PoseLines`]) share one parser.
+trait LineFormat: Send {
+    /// The pose on `line` (1-based) holding `content`, or `None` for a
+    /// comment or header.
+    fn line(&mut self, line: usize, content: &str, path: &Path) -> Result<Option<Pose>>;
+}
+
+/// The line reader of `format`; `None` for GPX (XML, read whole) and for
+/// `Auto` (not yet decided).
+fn line_format(format: Format) -> Option<Box<dyn LineFormat>> {
+    match format {
+        Format::Tum => Some(Box::new(tum::Tum)),
+        Format::Kitti => Some(Box::new(kitti::Kitti)),
+        Format::Euroc => Some(Box::new(euroc::Euroc)),
+        Format::Xyz => Some(Box::new(xyz::Xyz::default())),
+        Format::Csv => Some(Box::new(csv::Csv::default())),
+        Format::Gpx | Format::Auto => None,
+    }
+}
+
 /// An [`Error::Parse`] for `path` at 1-based `line`.
 fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
     Error::Parse {
@@ -151,13 +177,13 @@ fn parse_error(path: &Path, line: usize, message: impl Into<String>) -> Error {
     }
 }
 
-/// The data lines of a line-oriented text format: `(1-based line number,
-/// trimmed text)`, skipping blank lines and `#` comments.
-fn data_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+/// The lines of a line-oriented text format: `(1-based line number,
+/// trimmed text)`, skipping blank lines.
+fn content_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
     text.lines()
         .enumerate()
         .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+        .filter(|(_, l)| !l.is_empty())
 }
 
 /// Parses one field as a finite number; the error message names the column.

@@ -5,13 +5,17 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::{data_lines, numbers, parse_error, pose, quaternion, split_ws};
+use super::{numbers, parse_error, pose, quaternion, split_ws, LineFormat};
 use crate::{Pose, Result};
 
-/// Parses TUM text into poses.
-pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
-    let mut poses = Vec::new();
-    for (line, content) in data_lines(text) {
+/// TUM lines.
+pub(super) struct Tum;
+
+impl LineFormat for Tum {
+    fn line(&mut self, line: usize, content: &str, path: &Path) -> Result<Option<Pose>> {
+        if content.starts_with('#') {
+            return Ok(None);
+        }
         let fields = split_ws(content);
         if fields.len() != 8 {
             return Err(parse_error(
@@ -25,7 +29,10 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
         }
         let v = numbers(fields.into_iter()).map_err(|m| parse_error(path, line, m))?;
         let q = quaternion(v[7], v[4], v[5], v[6]).map_err(|m| parse_error(path, line, m))?;
-        poses.push(pose(Some(v[0]), Vector3::new(v[1], v[2], v[3]), Some(q)));
+        Ok(Some(pose(
+            Some(v[0]),
+            Vector3::new(v[1], v[2], v[3]),
+            Some(q),
+        )))
     }
-    Ok(poses)
 }

@@ -5,18 +5,25 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::{data_lines, numbers, parse_error, pose, split_comma_ws};
+use super::{numbers, parse_error, pose, split_comma_ws, LineFormat};
 use crate::{Pose, Result};
 
-/// Parses xyz text into poses (no timestamps, no orientation).
-pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
-    let mut poses = Vec::new();
-    // Every line must have as many numbers as the first: a change is a
-    // damaged line, not a change of dimension.
-    let mut columns: Option<(usize, usize)> = None;
-    for (line, content) in data_lines(text) {
+/// xyz lines (no timestamps, no orientation).
+#[derive(Default)]
+pub(super) struct Xyz {
+    /// Numbers per line and the line that set it: every line must have as
+    /// many as the first (a change is a damaged line, not a change of
+    /// dimension).
+    columns: Option<(usize, usize)>,
+}
+
+impl LineFormat for Xyz {
+    fn line(&mut self, line: usize, content: &str, path: &Path) -> Result<Option<Pose>> {
+        if content.starts_with('#') {
+            return Ok(None);
+        }
         let fields = split_comma_ws(content);
-        match columns {
+        match self.columns {
             _ if !(2..=3).contains(&fields.len()) => {
                 return Err(parse_error(
                     path,
@@ -35,11 +42,10 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
                 ))
             }
             Some(_) => {}
-            None => columns = Some((fields.len(), line)),
+            None => self.columns = Some((fields.len(), line)),
         }
         let v = numbers(fields.into_iter()).map_err(|m| parse_error(path, line, m))?;
         let z = v.get(2).copied().unwrap_or(0.0);
-        poses.push(pose(None, Vector3::new(v[0], v[1], z), None));
+        Ok(Some(pose(None, Vector3::new(v[0], v[1], z), None)))
     }
-    Ok(poses)
 }

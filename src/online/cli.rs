@@ -1,15 +1,26 @@
 //! `turnprint stream A --json`: replays a trajectory through the detector
 //! and writes JSON Lines (`cli.md`). The replay uses [`Overflow::Block`]
 //! so the output does not depend on machine speed.
+//!
+//! `turnprint stream -` reads the poses from stdin as a running odometry
+//! process writes them, and writes each event as soon as the detector has
+//! it, also while the input waits: the same events, in the same order, as
+//! the replay of the same lines from a file.
 
-use std::io::Write;
+use std::io::{BufRead, Write};
 use std::path::Path;
+use std::time::Duration;
 
+use crossbeam::channel::{bounded, RecvTimeoutError};
 use serde_json::json;
 
 use super::{Detector, OnlineConfig, Overflow, PoseInput, Summary};
-use crate::io::{read_trajectory, Format};
-use crate::{Error, Result};
+use crate::io::{read_trajectory, Format, PoseLines};
+use crate::pipeline::prepare::MIN_POSES;
+use crate::{Error, Pose, Result};
+
+/// How often events are collected while stdin has no new line.
+const IDLE_POLL: Duration = Duration::from_millis(20);
 
 /// Streams the trajectory at `path` and writes one JSON object per line
 /// to `out`: candidates as they come, then the summary.
@@ -21,35 +32,104 @@ pub fn stream(
 ) -> Result<Summary> {
     let trajectory = read_trajectory(path, format)?;
     let name = path.display().to_string();
-    if trajectory.len() < crate::pipeline::prepare::MIN_POSES {
-        return Err(Error::input(
-            &name,
-            format!(
-                "{} poses; the method needs at least {}",
-                trajectory.len(),
-                crate::pipeline::prepare::MIN_POSES
-            ),
-        ));
+    if trajectory.len() < MIN_POSES {
+        return Err(too_few(&name, trajectory.len()));
     }
-    let io_err = |e: std::io::Error| Error::Io {
-        path: "<stdout>".into(),
-        source: e,
-    };
     let mut detector = Detector::new(config.clone(), Overflow::Block);
     for pose in &trajectory.poses {
-        detector.push(&PoseInput {
-            t: pose.t,
-            position: pose.position,
-            orientation: pose.orientation,
-            keyframe: None,
-        });
-        for e in detector.poll() {
-            writeln!(out, "{}", e.to_json()).map_err(io_err)?;
-        }
+        push(&mut detector, pose);
+        write_events(&mut detector, out)?;
     }
+    finish(detector, &name, out)
+}
+
+/// Streams the poses of `input`'s lines (named `name` in messages) as they
+/// arrive, in `format` (`auto`: detected from the first data line), and
+/// writes each event as soon as the detector has it; at the end of the
+/// input, the rest and the summary.
+pub fn stream_lines(
+    input: impl BufRead + Send + 'static,
+    name: &str,
+    format: Format,
+    config: &OnlineConfig,
+    out: &mut dyn Write,
+) -> Result<Summary> {
+    let mut lines = PoseLines::new(format, Path::new(name))?;
+    // A reader thread, so that events still go out while a line is awaited.
+    let (tx, rx) = bounded::<std::io::Result<String>>(1024);
+    std::thread::spawn(move || {
+        for line in input.lines() {
+            let stop = line.is_err();
+            if tx.send(line).is_err() || stop {
+                break;
+            }
+        }
+    });
+    let mut detector = Detector::new(config.clone(), Overflow::Block);
+    let mut poses = 0;
+    loop {
+        match rx.recv_timeout(IDLE_POLL) {
+            Ok(Ok(line)) => {
+                if let Some(pose) = lines.push(&line)? {
+                    push(&mut detector, &pose);
+                    poses += 1;
+                }
+            }
+            Ok(Err(source)) => {
+                return Err(Error::Io {
+                    path: name.into(),
+                    source,
+                })
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        write_events(&mut detector, out)?;
+    }
+    if poses < MIN_POSES {
+        return Err(too_few(name, poses));
+    }
+    finish(detector, name, out)
+}
+
+/// One pose into the detector (no keyframes: nothing is rendered).
+fn push(detector: &mut Detector, pose: &Pose) {
+    detector.push(&PoseInput {
+        t: pose.t,
+        position: pose.position,
+        orientation: pose.orientation,
+        keyframe: None,
+    });
+}
+
+/// The error for a stream of `n` poses, too few for the method.
+fn too_few(name: &str, n: usize) -> Error {
+    Error::input(
+        name,
+        format!("{n} poses; the method needs at least {MIN_POSES}"),
+    )
+}
+
+fn stdout_error(source: std::io::Error) -> Error {
+    Error::Io {
+        path: "<stdout>".into(),
+        source,
+    }
+}
+
+/// Writes the events the detector has ready, one JSON object per line.
+fn write_events(detector: &mut Detector, out: &mut dyn Write) -> Result<()> {
+    for e in detector.poll() {
+        writeln!(out, "{}", e.to_json()).map_err(stdout_error)?;
+    }
+    Ok(())
+}
+
+/// Drains the detector, writes the rest and the summary line.
+fn finish(detector: Detector, name: &str, out: &mut dyn Write) -> Result<Summary> {
     let (rest, summary) = detector.finish();
     for e in rest {
-        writeln!(out, "{}", e.to_json()).map_err(io_err)?;
+        writeln!(out, "{}", e.to_json()).map_err(stdout_error)?;
     }
     let mut s = serde_json::to_value(summary).unwrap_or_default();
     if let Some(o) = s.as_object_mut() {
@@ -57,6 +137,7 @@ pub fn stream(
         o.insert("path".into(), json!(name));
         o.insert("candidates".into(), json!(summary.worker.candidates));
     }
-    writeln!(out, "{s}").map_err(io_err)?;
+    writeln!(out, "{s}").map_err(stdout_error)?;
+    out.flush().map_err(stdout_error)?;
     Ok(summary)
 }

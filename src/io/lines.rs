@@ -1,0 +1,138 @@
+//! Poses read one line at a time, as a running odometry process writes them
+//! (`turnprint stream -`): the same parsers as whole files, the format
+//! detected from the first data line when it is `auto`.
+
+use std::path::{Path, PathBuf};
+
+use super::{detect, line_format, Format, LineFormat};
+use crate::{Error, Pose, Result};
+
+/// A line-oriented trajectory read as its lines arrive.
+pub struct PoseLines {
+    path: PathBuf,
+    reader: Option<Box<dyn LineFormat>>,
+    /// The lines before the first data line, kept for `auto` detection
+    /// (which may read a `#` header above it).
+    preamble: String,
+    /// Lines seen.
+    line: usize,
+}
+
+impl PoseLines {
+    /// A reader of `format` whose messages name `path` (`-` for stdin).
+    /// GPX is XML, not lines: an error.
+    pub fn new(format: Format, path: &Path) -> Result<PoseLines> {
+        if format == Format::Gpx {
+            return Err(Error::input(
+                path.display().to_string(),
+                "GPX cannot be read line by line: give it as a file",
+            ));
+        }
+        Ok(PoseLines {
+            path: path.to_path_buf(),
+            reader: line_format(format),
+            preamble: String::new(),
+            line: 0,
+        })
+    }
+
+    /// The pose on the next line, if it holds one; an error names the line.
+    pub fn push(&mut self, raw: &str) -> Result<Option<Pose>> {
+        self.line += 1;
+        let raw = if self.line == 1 {
+            raw.strip_prefix('\u{feff}').unwrap_or(raw)
+        } else {
+            raw
+        };
+        let content = raw.trim();
+        if self.reader.is_none() {
+            // `auto`: comments wait for the first data line, which decides.
+            if content.is_empty() || content.starts_with('#') {
+                self.preamble.push_str(content);
+                self.preamble.push('\n');
+                return Ok(None);
+            }
+            let text = format!("{}{content}", self.preamble);
+            let Some(reader) = line_format(detect::detect(&text, &self.path)?) else {
+                return Err(super::parse_error(
+                    &self.path,
+                    self.line,
+                    "GPX cannot be read line by line: give it as a file",
+                ));
+            };
+            self.reader = Some(reader);
+            // The comments above (one may be a CSV header), from line 1.
+            let preamble = std::mem::take(&mut self.preamble);
+            for (i, earlier) in preamble.lines().enumerate() {
+                if !earlier.is_empty() {
+                    self.read(i + 1, earlier)?;
+                }
+            }
+        }
+        if content.is_empty() {
+            return Ok(None);
+        }
+        self.read(self.line, content)
+    }
+
+    fn read(&mut self, line: usize, content: &str) -> Result<Option<Pose>> {
+        match self.reader.as_mut() {
+            Some(reader) => reader.line(line, content, &self.path),
+            None => Ok(None),
+        }
+    }
+
+    /// Lines read so far.
+    pub fn lines(&self) -> usize {
+        self.line
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::parse_trajectory;
+
+    /// Every line pushed gives the poses of the whole file, in order.
+    fn poses_by_line(text: &str, format: Format) -> Result<Vec<Pose>> {
+        let mut lines = PoseLines::new(format, Path::new("-"))?;
+        let mut poses = Vec::new();
+        for l in text.lines() {
+            poses.extend(lines.push(l)?);
+        }
+        Ok(poses)
+    }
+
+    #[test]
+    fn line_by_line_reads_what_the_whole_file_reads() {
+        let texts = [
+            "# t x y z qx qy qz qw\n0 1 2 3 0 0 0 1\n\n0.1 1.5 2 3 0 0 0 1\n",
+            "1 0 0 5 0 1 0 6 0 0 1 7\n1 0 0 8 0 1 0 9 0 0 1 10\n",
+            "#timestamp [ns],p_x,p_y,p_z,q_w,q_x,q_y,q_z\n1403636579758555392,1,2,3,1,0,0,0\n",
+            "1, 2\n3, 4\n",
+            "\u{feff}# a comment\n# t,x,y,z\n0,1,2,3\n1,4,5,6\n",
+            "time x y\n0 1 2\n1 3 4\n",
+        ];
+        for text in texts {
+            let whole = parse_trajectory(text, Format::Auto, Path::new("-"))
+                .unwrap()
+                .poses;
+            let streamed = poses_by_line(text, Format::Auto).unwrap();
+            assert_eq!(whole.len(), streamed.len(), "{text:?}");
+            for (w, s) in whole.iter().zip(&streamed) {
+                assert_eq!(w.position, s.position, "{text:?}");
+                assert_eq!(w.t, s.t, "{text:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_bad_line_is_named_and_gpx_is_refused() {
+        let err =
+            poses_by_line("0 1 2 3 0 0 0 1\n\n0 1 nan 3 0 0 0 1\n", Format::Auto).unwrap_err();
+        assert!(err.to_string().starts_with("-:3: "), "{err}");
+        let err = poses_by_line("<gpx><trk>", Format::Auto).unwrap_err();
+        assert!(err.to_string().contains("GPX"), "{err}");
+        assert!(PoseLines::new(Format::Gpx, Path::new("-")).is_err());
+    }
+}
