@@ -388,3 +388,55 @@ fn a_reader_closing_stdout_early_is_no_panic_and_no_error() {
         assert!(stderr.trim().is_empty(), "{args:?}: {stderr}");
     }
 }
+
+/// `turnprint args` with `input` on stdin.
+fn turnprint_with_stdin(args: &[&str], input: Vec<u8>) -> Output {
+    use std::io::Write;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_turnprint"))
+        .args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("turnprint runs");
+    let mut stdin = child.stdin.take().unwrap();
+    std::thread::spawn(move || stdin.write_all(&input));
+    child.wait_with_output().expect("turnprint ends")
+}
+
+#[test]
+fn a_path_on_stdin_reads_as_the_file() {
+    let gps = std::fs::read("tests/data/KittiGps_converted.txt").unwrap();
+    let hypotheses = |out: &Output| {
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["hypotheses"].clone()
+    };
+    let file = turnprint_ok(&[
+        "match",
+        "tests/data/00.txt",
+        "tests/data/KittiGps_converted.txt",
+        "--json",
+    ]);
+    let piped = turnprint_with_stdin(&["match", "tests/data/00.txt", "-", "--json"], gps);
+    assert!(piped.status.success());
+    assert_eq!(hypotheses(&file), hypotheses(&piped));
+
+    let loops = |out: &Output| {
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["loops"].clone()
+    };
+    let file = turnprint_ok(&["loops", "tests/data/00.txt", "--json"]);
+    let kitti = std::fs::read("tests/data/00.txt").unwrap();
+    let piped = turnprint_with_stdin(&["loops", "-", "--json"], kitti);
+    assert!(piped.status.success());
+    assert_eq!(loops(&file), loops(&piped));
+
+    let both = turnprint_with_stdin(&["match", "-", "-"], Vec::new());
+    assert!(!both.status.success());
+    assert!(String::from_utf8_lossy(&both.stderr).contains("both be stdin"));
+    let bad = turnprint_with_stdin(&["loops", "-"], b"0 0 0\n1 nan 0\n".to_vec());
+    assert_eq!(
+        String::from_utf8_lossy(&bad.stderr).trim(),
+        "turnprint: <stdin>:2: non-finite value 'nan' in column 2"
+    );
+}

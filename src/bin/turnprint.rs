@@ -29,9 +29,9 @@ struct Cli {
 enum Command {
     /// Where path B overlaps path A, and the similarity mapping B into A.
     Match {
-        /// Path A (the reference frame).
+        /// Path A (the reference frame); `-` reads it from stdin.
         a: PathBuf,
-        /// Path B.
+        /// Path B; `-` reads it from stdin.
         b: PathBuf,
         /// Print one JSON object (cli.md) instead of a table.
         #[arg(long)]
@@ -48,7 +48,7 @@ enum Command {
     },
     /// Places that path A revisits (loop-closure hypotheses).
     Loops {
-        /// The path.
+        /// The path; `-` reads it from stdin.
         a: PathBuf,
         /// Print one JSON object (cli.md) instead of a table.
         #[arg(long)]
@@ -72,9 +72,9 @@ enum Command {
     },
     /// Writes A and B (mapped into A's frame by the best hypothesis) as one TUM file.
     Merge {
-        /// Path A (the reference frame).
+        /// Path A (the reference frame); `-` reads it from stdin.
         a: PathBuf,
-        /// Path B.
+        /// Path B; `-` reads it from stdin.
         b: PathBuf,
         /// Output TUM file.
         #[arg(short, long)]
@@ -286,8 +286,15 @@ impl Drop for Progress {
     }
 }
 
+/// The trajectory in `path`, or on stdin for `-`.
 fn read(path: &Path, format: Format) -> Result<Trajectory, String> {
-    read_trajectory(path, format).map_err(|e| e.to_string())
+    if path == Path::new("-") {
+        let stdin = std::io::stdin().lock();
+        turnprint::io::read_trajectory_from(stdin, Path::new("<stdin>"), format)
+    } else {
+        read_trajectory(path, format)
+    }
+    .map_err(|e| e.to_string())
 }
 
 fn prepare(t: &Trajectory, config: &Config) -> Result<PreparedPath, String> {
@@ -302,6 +309,9 @@ fn match_files(
     fb: Format,
     config: &Config,
 ) -> Result<(Trajectory, Trajectory, Vec<Hypothesis>), String> {
+    if a == Path::new("-") && b == Path::new("-") {
+        return Err("A and B cannot both be stdin (-)".into());
+    }
     let progress = Progress::new();
     progress.stage("reading");
     let (ta, tb) = (read(a, fa)?, read(b, fb)?);

@@ -101,6 +101,26 @@ pub fn read_trajectory(path: &Path, format: Format) -> Result<Trajectory> {
         path: path.to_path_buf(),
         source,
     })?;
+    parse_bytes(bytes, format, path)
+}
+
+/// Reads a whole trajectory from `input` (stdin, say), named `name` in
+/// messages; `Format::Auto` detects the format from the content.
+pub fn read_trajectory_from(
+    mut input: impl std::io::Read,
+    name: &Path,
+    format: Format,
+) -> Result<Trajectory> {
+    let mut bytes = Vec::new();
+    input.read_to_end(&mut bytes).map_err(|source| Error::Io {
+        path: name.to_path_buf(),
+        source,
+    })?;
+    parse_bytes(bytes, format, name)
+}
+
+/// Parses a whole file's bytes, which must be UTF-8 text.
+fn parse_bytes(bytes: Vec<u8>, format: Format, path: &Path) -> Result<Trajectory> {
     let text = match String::from_utf8(bytes) {
         Ok(text) => text,
         Err(e) => {
