@@ -114,6 +114,8 @@ impl<T: FftNum> BlockTransform<T> {
     /// correlation and convolution of a query of `len` samples (spectrum
     /// `query`, from [`BlockTransform::spectrum_into`]) into `corr` and
     /// `conv`; indices past either slice's end are not needed and skipped.
+    /// A query longer than [`BlockTransform::max_query`] (or empty) adds
+    /// nothing: its sums would wrap.
     #[allow(clippy::too_many_arguments)]
     pub fn add_block(
         &self,
@@ -127,7 +129,9 @@ impl<T: FftNum> BlockTransform<T> {
         scratch: &mut Vec<Complex<T>>,
     ) {
         let (b, m) = (self.block, 2 * self.block);
-        debug_assert!(len >= 1 && len <= self.max_query());
+        if len == 0 || len > self.max_query() {
+            return;
+        }
         let i = Complex::new(T::zero(), T::one());
         buf.clear();
         buf.extend(
