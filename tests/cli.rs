@@ -440,3 +440,28 @@ fn a_path_on_stdin_reads_as_the_file() {
         "turnprint: <stdin>:2: non-finite value 'nan' in column 2"
     );
 }
+
+#[test]
+fn a_score_threshold_outside_0_to_1_is_refused() {
+    for (cmd, value) in [("loops", "nan"), ("loops", "-0.1"), ("merge", "1.5")] {
+        let args: Vec<&str> = match cmd {
+            "loops" => vec!["loops", "tests/data/00.txt", "--min-score", value],
+            _ => vec![
+                "merge",
+                "tests/data/00.txt",
+                "tests/data/00.txt",
+                "-o",
+                "/nonexistent/never-written.tum",
+                "--min-score",
+                value,
+            ],
+        };
+        let out = turnprint(&args);
+        assert!(!out.status.success(), "{cmd} --min-score {value} accepted");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("not a score between 0 and 1"),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}

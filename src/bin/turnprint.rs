@@ -64,7 +64,7 @@ enum Command {
         no_prior: bool,
         /// Leave out loops scoring below this (0..1): 0.1 gives a short,
         /// precise list (EVALUATION.md has the trade-off).
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(long, default_value_t = 0.0, value_parser = score_in_unit_interval)]
         min_score: f64,
         /// Also draw the path and its loops (SVG or PNG by extension).
         #[arg(long)]
@@ -90,7 +90,7 @@ enum Command {
         format_b: Option<Format>,
         /// Write nothing and fail when the best hypothesis scores below this
         /// (0..1); 0 merges whatever ranks first.
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(long, default_value_t = 0.0, value_parser = score_in_unit_interval)]
         min_score: f64,
     },
     /// Replays A one pose at a time through the online detector (JSON Lines).
@@ -129,6 +129,15 @@ enum Command {
         #[arg(long)]
         no_drift_probe: bool,
     },
+}
+
+/// A score threshold: a number in [0, 1] (scores are in [0, 1]; NaN or a
+/// value outside would silently keep everything or nothing).
+fn score_in_unit_interval(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!("'{s}' is not a score between 0 and 1")),
+    }
 }
 
 fn main() -> ExitCode {
