@@ -444,16 +444,16 @@ fn a_path_on_stdin_reads_as_the_file() {
 #[test]
 fn a_score_threshold_outside_0_to_1_is_refused() {
     for (cmd, value) in [("loops", "nan"), ("loops", "-0.1"), ("merge", "1.5")] {
+        let threshold = format!("--min-score={value}");
         let args: Vec<&str> = match cmd {
-            "loops" => vec!["loops", "tests/data/00.txt", "--min-score", value],
+            "loops" => vec!["loops", "tests/data/00.txt", &threshold],
             _ => vec![
                 "merge",
                 "tests/data/00.txt",
                 "tests/data/00.txt",
                 "-o",
                 "/nonexistent/never-written.tum",
-                "--min-score",
-                value,
+                &threshold,
             ],
         };
         let out = turnprint(&args);
