@@ -133,3 +133,30 @@ fn piped_bad_input_names_stdin_and_its_line() {
     let e = run("", &["--format", "gpx"]);
     assert!(e.contains("GPX"), "{e}");
 }
+
+#[test]
+fn a_lost_pose_is_dropped_and_counted_and_the_stream_goes_on() {
+    // The monocular estimate with the odometry losing track three times.
+    let text = std::fs::read_to_string("tests/data/00_orbslam2_tum.txt").unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    for at in [1000, 2000, 3000] {
+        let t = lines[at].split_whitespace().next().unwrap().to_string();
+        lines.insert(at, format!("{t} nan nan nan nan nan nan nan"));
+    }
+    let input = lines.join("\n") + "\n";
+    let mut child = turnprint()
+        .args(["stream", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    std::thread::spawn(move || stdin.write_all(input.as_bytes()));
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let summary: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+    assert_eq!(summary["guards"]["non_finite"], 3, "{summary}");
+    assert_eq!(summary["accepted"], 4541, "{summary}");
+    assert!(events(&out.stdout).len() > 10);
+}

@@ -4,6 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
+use nalgebra::Vector3;
+
 use super::{detect, line_format, Format, LineFormat};
 use crate::{Error, Pose, Result};
 
@@ -16,6 +18,9 @@ pub struct PoseLines {
     preamble: String,
     /// Lines seen.
     line: usize,
+    /// Whether a line of numbers that are not all finite is a lost pose
+    /// rather than an error.
+    lost_poses: bool,
 }
 
 impl PoseLines {
@@ -33,7 +38,19 @@ impl PoseLines {
             reader: line_format(format),
             preamble: String::new(),
             line: 0,
+            lost_poses: false,
         })
+    }
+
+    /// This reader, taking a line of numbers that are not all finite (the
+    /// odometry lost track: `nan nan nan ...`) for a pose at a non-finite
+    /// position instead of an error, for the detector's guard to drop and
+    /// count. Other bad lines are still errors.
+    pub fn with_lost_poses(self) -> PoseLines {
+        PoseLines {
+            lost_poses: true,
+            ..self
+        }
     }
 
     /// The pose on the next line, if it holds one; an error names the line.
@@ -76,9 +93,16 @@ impl PoseLines {
     }
 
     fn read(&mut self, line: usize, content: &str) -> Result<Option<Pose>> {
-        match self.reader.as_mut() {
-            Some(reader) => reader.line(line, content, &self.path),
-            None => Ok(None),
+        let Some(reader) = self.reader.as_mut() else {
+            return Ok(None);
+        };
+        match reader.line(line, content, &self.path) {
+            Err(_) if self.lost_poses && lost(content) => Ok(Some(Pose {
+                t: None,
+                position: Vector3::repeat(f64::NAN),
+                orientation: None,
+            })),
+            read => read,
         }
     }
 
@@ -86,6 +110,20 @@ impl PoseLines {
     pub fn lines(&self) -> usize {
         self.line
     }
+}
+
+/// True when every field of `content` is a number and one is not finite.
+fn lost(content: &str) -> bool {
+    let mut non_finite = false;
+    let numbers = content
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|f| !f.is_empty())
+        .all(|f| {
+            f.parse::<f64>()
+                .map(|v| non_finite |= !v.is_finite())
+                .is_ok()
+        });
+    numbers && non_finite
 }
 
 #[cfg(test)]
@@ -134,5 +172,26 @@ mod tests {
         let err = poses_by_line("<gpx><trk>", Format::Auto).unwrap_err();
         assert!(err.to_string().contains("GPX"), "{err}");
         assert!(PoseLines::new(Format::Gpx, Path::new("-")).is_err());
+    }
+
+    #[test]
+    fn a_lost_pose_is_a_non_finite_pose_only_when_asked() {
+        let text = "0 1 2 3 0 0 0 1\n0.1 nan nan nan nan nan nan nan\n0.2 1 2 3 0 0 0 1\n";
+        assert!(poses_by_line(text, Format::Tum).is_err());
+        let mut lines = PoseLines::new(Format::Auto, Path::new("-"))
+            .unwrap()
+            .with_lost_poses();
+        let poses: Vec<Pose> = text
+            .lines()
+            .map(|l| lines.push(l).unwrap().unwrap())
+            .collect();
+        assert!(poses[1].position.iter().all(|v| v.is_nan()));
+        assert!(poses[2].position.iter().all(|v| v.is_finite()));
+        // Words and wrong counts are still errors.
+        let mut lines = PoseLines::new(Format::Tum, Path::new("-"))
+            .unwrap()
+            .with_lost_poses();
+        assert!(lines.push("0 1 2 x 0 0 0 1").is_err());
+        assert!(lines.push("0 1 2 3").is_err());
     }
 }

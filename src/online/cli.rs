@@ -54,7 +54,10 @@ pub fn stream_lines(
     config: &OnlineConfig,
     out: &mut dyn Write,
 ) -> Result<Summary> {
-    let mut lines = PoseLines::new(format, Path::new(name))?;
+    // A running odometry that loses track may write `nan`: the detector's
+    // guard drops and counts such a pose (the summary's
+    // `guards.non_finite`) instead of the stream ending.
+    let mut lines = PoseLines::new(format, Path::new(name))?.with_lost_poses();
     // A reader thread, so that events still go out while a line is awaited.
     let (tx, rx) = bounded::<std::io::Result<String>>(1024);
     std::thread::spawn(move || {
