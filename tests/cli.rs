@@ -5,6 +5,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
 fn turnprint(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_turnprint"))
         .args(args)
@@ -391,17 +393,9 @@ fn a_reader_closing_stdout_early_is_no_panic_and_no_error() {
 
 /// `turnprint args` with `input` on stdin.
 fn turnprint_with_stdin(args: &[&str], input: Vec<u8>) -> Output {
-    use std::io::Write;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_turnprint"))
-        .args(args)
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("turnprint runs");
-    let mut stdin = child.stdin.take().unwrap();
-    std::thread::spawn(move || stdin.write_all(&input));
-    child.wait_with_output().expect("turnprint ends")
+    let mut command = Command::new(env!("CARGO_BIN_EXE_turnprint"));
+    command.args(args);
+    common::output_with_stdin(command, input)
 }
 
 #[test]

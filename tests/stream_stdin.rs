@@ -3,8 +3,10 @@
 //! soon as the detector has it, while the input still waits.
 #![cfg(feature = "cli")]
 
+mod common;
+
 use std::io::{BufRead, BufReader, Write};
-use std::process::{Command, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
@@ -22,6 +24,13 @@ fn turnprint() -> Command {
     Command::new(env!("CARGO_BIN_EXE_turnprint"))
 }
 
+/// `turnprint stream - EXTRA` with all of `input` piped in, to its end.
+fn stream_piped(input: Vec<u8>, extra: &[&str]) -> Output {
+    let mut command = turnprint();
+    command.args(["stream", "-"]).args(extra);
+    common::output_with_stdin(command, input)
+}
+
 #[test]
 fn piped_poses_give_the_events_of_the_file() {
     let file = turnprint()
@@ -29,16 +38,8 @@ fn piped_poses_give_the_events_of_the_file() {
         .output()
         .unwrap();
     assert!(file.status.success());
-    let mut child = turnprint()
-        .args(["stream", "-"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
     let text = std::fs::read("tests/data/00_orbslam2_tum.txt").unwrap();
-    let mut stdin = child.stdin.take().unwrap();
-    std::thread::spawn(move || stdin.write_all(&text));
-    let piped = child.wait_with_output().unwrap();
+    let piped = stream_piped(text, &[]);
     assert!(piped.status.success());
     let (from_file, from_pipe) = (events(&file.stdout), events(&piped.stdout));
     assert!(from_file.len() > 10, "{} events", from_file.len());
@@ -107,18 +108,8 @@ fn a_candidate_goes_out_while_the_input_still_waits() {
 
 #[test]
 fn piped_bad_input_names_stdin_and_its_line() {
-    let run = |input: &'static str, extra: &[&str]| {
-        let mut child = turnprint()
-            .args(["stream", "-"])
-            .args(extra)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let mut stdin = child.stdin.take().unwrap();
-        std::thread::spawn(move || stdin.write_all(input.as_bytes()));
-        let out = child.wait_with_output().unwrap();
+    let run = |input: &str, extra: &[&str]| {
+        let out = stream_piped(input.as_bytes().to_vec(), extra);
         assert!(!out.status.success(), "{input:?} was accepted");
         String::from_utf8_lossy(&out.stderr).trim().to_string()
     };
@@ -143,16 +134,7 @@ fn a_lost_pose_is_dropped_and_counted_and_the_stream_goes_on() {
         let t = lines[at].split_whitespace().next().unwrap().to_string();
         lines.insert(at, format!("{t} nan nan nan nan nan nan nan"));
     }
-    let input = lines.join("\n") + "\n";
-    let mut child = turnprint()
-        .args(["stream", "-"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stdin = child.stdin.take().unwrap();
-    std::thread::spawn(move || stdin.write_all(input.as_bytes()));
-    let out = child.wait_with_output().unwrap();
+    let out = stream_piped((lines.join("\n") + "\n").into_bytes(), &[]);
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
     let summary: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();

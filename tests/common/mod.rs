@@ -1,5 +1,11 @@
 //! Helpers shared by the integration tests.
 
+// Each test crate compiles this module and uses only some of it.
+#![allow(dead_code)]
+
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
+
 use nalgebra::Vector3;
 use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
 
@@ -14,4 +20,18 @@ pub fn emitted_candidates(points: &[Vector3<f64>], config: OnlineConfig) -> Vec<
     }
     out.extend(det.finish().0);
     out
+}
+
+/// The output of `command` run with all of `input` on its stdin (written
+/// from a thread, so a command that writes while it reads cannot block).
+pub fn output_with_stdin(mut command: Command, input: Vec<u8>) -> Output {
+    let mut child = command
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the command starts");
+    let mut stdin = child.stdin.take().expect("piped stdin");
+    std::thread::spawn(move || stdin.write_all(&input));
+    child.wait_with_output().expect("the command ends")
 }
