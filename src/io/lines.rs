@@ -9,6 +9,9 @@ use nalgebra::Vector3;
 use super::{detect, line_format, Format, LineFormat};
 use crate::{Error, Pose, Result};
 
+/// Why GPX cannot be streamed.
+const NO_GPX: &str = "GPX cannot be read line by line: give it as a file";
+
 /// A line-oriented trajectory read as its lines arrive.
 pub struct PoseLines {
     path: PathBuf,
@@ -28,10 +31,7 @@ impl PoseLines {
     /// GPX is XML, not lines: an error.
     pub fn new(format: Format, path: &Path) -> Result<PoseLines> {
         if format == Format::Gpx {
-            return Err(Error::input(
-                path.display().to_string(),
-                "GPX cannot be read line by line: give it as a file",
-            ));
+            return Err(Error::input(path.display().to_string(), NO_GPX));
         }
         Ok(PoseLines {
             path: path.to_path_buf(),
@@ -71,14 +71,11 @@ impl PoseLines {
             }
             let text = format!("{}{content}", self.preamble);
             let Some(reader) = line_format(detect::detect(&text, &self.path)?) else {
-                return Err(super::parse_error(
-                    &self.path,
-                    self.line,
-                    "GPX cannot be read line by line: give it as a file",
-                ));
+                return Err(super::parse_error(&self.path, self.line, NO_GPX));
             };
             self.reader = Some(reader);
-            // The comments above (one may be a CSV header), from line 1.
+            // The comments above, from line 1: no poses, but one may be a
+            // CSV header.
             let preamble = std::mem::take(&mut self.preamble);
             for (i, earlier) in preamble.lines().enumerate() {
                 if !earlier.is_empty() {
@@ -104,11 +101,6 @@ impl PoseLines {
             })),
             read => read,
         }
-    }
-
-    /// Lines read so far.
-    pub fn lines(&self) -> usize {
-        self.line
     }
 }
 
