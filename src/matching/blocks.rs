@@ -29,16 +29,6 @@ pub struct BlockTransform<T: FftNum> {
     ifft: Arc<dyn Fft<T>>,
 }
 
-impl<T: FftNum> Clone for BlockTransform<T> {
-    fn clone(&self) -> Self {
-        BlockTransform {
-            block: self.block,
-            fft: Arc::clone(&self.fft),
-            ifft: Arc::clone(&self.ifft),
-        }
-    }
-}
-
 impl<T: FftNum> BlockTransform<T> {
     /// Transforms for blocks of `block` samples (`block >= 1`).
     pub fn new(block: usize) -> Self {
@@ -62,7 +52,7 @@ impl<T: FftNum> BlockTransform<T> {
     }
 
     /// Scratch length both transforms need.
-    pub fn scratch_len(&self) -> usize {
+    fn scratch_len(&self) -> usize {
         self.fft
             .get_inplace_scratch_len()
             .max(self.ifft.get_inplace_scratch_len())

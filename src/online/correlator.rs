@@ -52,12 +52,11 @@ pub struct BlockCorrelator {
 impl BlockCorrelator {
     /// Blocks of `block` samples.
     pub fn new(block: usize) -> Self {
-        let transform = BlockTransform::new(block.max(16));
-        let scratch = vec![Complex::new(0.0, 0.0); transform.scratch_len()];
         BlockCorrelator {
-            transform,
+            // The transforms size their scratch on first use.
+            transform: BlockTransform::new(block.max(16)),
             spectra: Vec::new(),
-            scratch,
+            scratch: Vec::new(),
             prefix: vec![0.0],
             prefix_sq: vec![0.0],
         }
