@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# System packages for the verifier sidecar (OpenCV) and the opencv crate's
-# binding generator (libclang). Idempotent and quiet when already installed.
+# System packages for the verifier sidecar (OpenCV), the opencv crate's
+# binding generator (libclang) and the C/C++ tests of the C ABI (g++).
+# Idempotent and quiet when already installed.
 set -euo pipefail
 need=()
-for p in libopencv-dev clang libclang-dev; do
+for p in libopencv-dev clang libclang-dev g++; do
   dpkg -s "$p" >/dev/null 2>&1 || need+=("$p")
 done
 if [ ${#need[@]} -gt 0 ]; then

@@ -4,4 +4,4 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-cargo test --all-features --release 2>&1
+cargo test --workspace --all-features --release 2>&1

@@ -1,0 +1,140 @@
+/*
+ * turnprint: the online loop-closure detector from C and C++.
+ *
+ * Push one pose at a time from the odometry thread (about half a
+ * microsecond; matching runs on the detector's own worker thread), poll the
+ * candidates whenever convenient. Build the library with
+ *
+ *     cargo build --release -p turnprint-capi
+ *
+ * and link target/release/libturnprint_c.a (with -lpthread -ldl -lm) or
+ * target/release/libturnprint_c.so.
+ *
+ * Every function is safe to call with NULL pointers (it returns an error
+ * code) and never lets a Rust panic cross into the caller: a failure
+ * returns TP_ERROR and tp_last_error() says why. A detector is used from
+ * one thread at a time.
+ */
+#ifndef TURNPRINT_H
+#define TURNPRINT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The detector (opaque). */
+typedef struct tp_detector tp_detector;
+
+/* Settings; tp_options_default fills in the library's defaults. */
+typedef struct tp_options {
+    /* Candidates emitted per finalised segment (default 3). */
+    uint32_t top_k;
+    /* Lowest score emitted, in [0, 1] (default 0.3). */
+    double min_score;
+    /* 1: also look for revisits farther away the longer the path in
+     * between, for odometry that drifts strongly (default 1). */
+    int drift_probe;
+    /* 0: push never waits; when matching falls behind, the newest segment
+     * is matched and the skipped ones are counted (live use, default).
+     * 1: push waits for the worker (replaying a file: deterministic). */
+    int wait_for_matching;
+} tp_options;
+
+/* One pose as odometry delivers it. */
+typedef struct tp_pose {
+    /* Timestamp in seconds, used when has_time is nonzero: must increase. */
+    double t;
+    int has_time;
+    /* Position, any unit and frame. */
+    double position[3];
+    /* Keyframe id of this pose, or a negative number when it is none. */
+    int64_t keyframe;
+} tp_pose;
+
+/* What tp_detector_push did with a pose (negative: an error). */
+enum {
+    TP_ACCEPTED = 0,
+    TP_REJECTED_NON_FINITE = 1,   /* NaN or infinite coordinate or time */
+    TP_REJECTED_OUT_OF_ORDER = 2, /* timestamp earlier than the last one */
+    TP_REJECTED_DUPLICATE = 3,    /* timestamp equal to the last one */
+    TP_ERROR = -1
+};
+
+/* Where a candidate came from. */
+enum {
+    TP_SOURCE_SHAPE = 0,       /* the shape search */
+    TP_SOURCE_PROXIMITY = 1,   /* near the current position in the map */
+    TP_SOURCE_DRIFT_PROBE = 2  /* farther away, for a drifting map */
+};
+
+/* A loop-closure candidate: the newest part of the path (query, later)
+ * revisits an earlier part (match). Ranges are inclusive pose indices in
+ * push order, counting rejected poses too. The similarity maps match
+ * points onto the query part:
+ *     p_query = scale * rotation * p_match + translation
+ * with rotation row-major. Shape proposes; check it against images before
+ * treating it as a constraint. */
+typedef struct tp_candidate {
+    uint64_t id;
+    /* Index of the pose whose arrival produced it. */
+    uint64_t at_pose;
+    uint64_t query_first, query_last;
+    uint64_t match_first, match_last;
+    /* Score in [0, 1] and the ZNCC of the two curvature signatures. */
+    double score, zncc;
+    /* 1 when the two parts are driven in opposite directions. */
+    int reversed;
+    int source;
+    double scale;
+    double rotation[9];
+    double translation[3];
+    /* 1 when keyframes were given: the pair a verifier should compare. */
+    int has_keyframes;
+    int64_t query_keyframe, match_keyframe;
+} tp_candidate;
+
+/* Counts of a finished run. */
+typedef struct tp_summary {
+    uint64_t poses, accepted;
+    uint64_t non_finite, out_of_order, duplicate, outliers, jumps;
+    uint64_t segments, candidates, skipped;
+    /* Memory held by the history at the end. */
+    uint64_t history_bytes;
+} tp_summary;
+
+/* The library's default settings. Returns TP_ERROR when out is NULL. */
+int tp_options_default(tp_options *out);
+
+/* A detector and its worker thread; options NULL for the defaults. NULL on
+ * failure (invalid options: tp_last_error()). */
+tp_detector *tp_detector_new(const tp_options *options);
+
+/* Feeds one pose: TP_ACCEPTED, a TP_REJECTED_* code (the pose is dropped
+ * and counted, the detector goes on), or TP_ERROR. */
+int tp_detector_push(tp_detector *detector, const tp_pose *pose);
+
+/* Copies up to capacity candidates that arrived since the last poll into
+ * out and returns how many; the rest wait for the next call. Returns 0
+ * when there are none, TP_ERROR on NULL detector (or NULL out with a
+ * nonzero capacity). */
+int64_t tp_detector_poll(tp_detector *detector, tp_candidate *out, size_t capacity);
+
+/* Ends the stream: the last segments are matched, the worker stops, the
+ * remaining candidates wait for tp_detector_poll, and the counts go to
+ * summary (may be NULL). Later pushes return TP_ERROR. */
+int tp_detector_finish(tp_detector *detector, tp_summary *summary);
+
+/* Frees the detector (NULL is ignored). */
+void tp_detector_free(tp_detector *detector);
+
+/* The last error of this thread, or "" (valid until the next call). */
+const char *tp_last_error(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* TURNPRINT_H */
