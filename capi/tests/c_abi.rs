@@ -67,21 +67,11 @@ fn misuse_and_lost_poses_from_c_get_codes_and_messages_not_crashes() {
     assert!(out.starts_with("ok "), "{out}");
 }
 
-#[test]
-fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
-    let program = compile(
-        "c++",
-        &["-O2", "-Wall", "-Werror"],
-        "examples/vo_loop.cpp",
-        "vo_loop",
-    );
-    let path = manifest().join(KITTI_00_MONO);
-    let out = run(&program, &[path.to_str().unwrap(), "--wait"]);
-    let from_cpp: Vec<&str> = out.lines().filter(|l| l.starts_with("candidate")).collect();
-
-    // The same poses and keyframes through the library, as the example
-    // pushes them (every fifth pose a keyframe; push waits for matching).
-    let poses = turnprint::io::read_trajectory(&path, turnprint::io::Format::Tum).unwrap();
+/// The candidate lines the examples print, made by the library itself
+/// from the same poses and keyframes (every fifth pose a keyframe; push
+/// waits for matching).
+fn rust_candidates(path: &Path) -> Vec<String> {
+    let poses = turnprint::io::read_trajectory(path, turnprint::io::Format::Tum).unwrap();
     let mut detector = Detector::new(OnlineConfig::default(), Overflow::Block);
     let mut events = Vec::new();
     for (i, p) in poses.poses.iter().enumerate() {
@@ -94,7 +84,7 @@ fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
         events.extend(detector.poll());
     }
     events.extend(detector.finish().0);
-    let from_rust: Vec<String> = events
+    events
         .iter()
         .map(|e| {
             let h = &e.hypothesis;
@@ -118,9 +108,54 @@ fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
                 h.reversed as i32,
             )
         })
-        .collect();
-    assert!(from_rust.len() > 40, "{} candidates", from_rust.len());
-    assert_eq!(from_cpp, from_rust);
+        .collect()
+}
+
+fn candidate_lines(out: &str) -> Vec<&str> {
+    out.lines().filter(|l| l.starts_with("candidate")).collect()
+}
+
+#[test]
+fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
+    let program = compile(
+        "c++",
+        &["-O2", "-Wall", "-Werror"],
+        "examples/vo_loop.cpp",
+        "vo_loop",
+    );
+    let path = manifest().join(KITTI_00_MONO);
+    let out = run(&program, &[path.to_str().unwrap(), "--wait"]);
+    let expected = rust_candidates(&path);
+    assert!(expected.len() > 40, "{} candidates", expected.len());
+    assert_eq!(candidate_lines(&out), expected);
+}
+
+#[test]
+fn the_python_vo_loop_gets_the_candidates_of_the_rust_detector() {
+    // ctypes on the shared library: the structures' layout as Python
+    // declares them must match the header's, or every field shifts.
+    let shared = library().with_extension("so");
+    let path = manifest().join(KITTI_00_MONO);
+    let out = Command::new("python3")
+        .arg(manifest().join("examples/vo_loop.py"))
+        .arg(&path)
+        .arg("--wait")
+        .arg("--lib")
+        .arg(&shared)
+        .output()
+        .expect("python3 (scripts/setup.sh installs it)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(candidate_lines(&out), rust_candidates(&path));
+    assert!(out
+        .lines()
+        .last()
+        .unwrap_or_default()
+        .starts_with("summary poses=4541 "));
 }
 
 #[test]
