@@ -98,7 +98,7 @@ def main(argv):
     drain(lib, detector, batch)
     print(f"summary poses={summary.poses} accepted={summary.accepted} "
           f"segments={summary.segments} candidates={summary.candidates} "
-          f"history_bytes={summary.history_bytes}")
+          f"skipped={summary.skipped} history_bytes={summary.history_bytes}")
     lib.tp_detector_free(detector)
 
 
