@@ -31,7 +31,9 @@ class Candidate(C.Structure):
                 ("reversed", C.c_int), ("source", C.c_int),
                 ("scale", C.c_double), ("rotation", C.c_double * 9),
                 ("translation", C.c_double * 3), ("has_keyframes", C.c_int),
-                ("query_keyframe", C.c_int64), ("match_keyframe", C.c_int64)]
+                ("query_keyframe", C.c_int64), ("match_keyframe", C.c_int64),
+                ("query_keyframe_pose", C.c_uint64),
+                ("match_keyframe_pose", C.c_uint64)]
 
 
 class Summary(C.Structure):

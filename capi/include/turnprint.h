@@ -91,9 +91,11 @@ typedef struct tp_candidate {
     double scale;
     double rotation[9];
     double translation[3];
-    /* 1 when keyframes were given: the pair a verifier should compare. */
+    /* 1 when keyframes were given: the pair a verifier should compare
+     * (tp_verifier_submit), and their pose indices. */
     int has_keyframes;
     int64_t query_keyframe, match_keyframe;
+    uint64_t query_keyframe_pose, match_keyframe_pose;
 } tp_candidate;
 
 /* Counts of a finished run. */
@@ -132,6 +134,76 @@ void tp_detector_free(tp_detector *detector);
 
 /* The last error of this thread, or "" (valid until the next call). */
 const char *tp_last_error(void);
+
+/* ---- The visual verifier sidecar --------------------------------------
+ * Shape proposes, images decide. Run `turnprint-verifier --prefix P` next
+ * to the VO process (cargo build --release --features verifier); the VO
+ * publishes its keyframes and submits candidates over iceoryx2 shared
+ * memory, and every submitted candidate ends in exactly one verdict:
+ * confirmed (with the relative camera pose), rejected, or expired (no
+ * verdict in time, or the verifier absent, gone or restarted). A verifier
+ * that dies never stops the VO. */
+
+/* The link to the verifier (opaque). */
+typedef struct tp_verifier tp_verifier;
+
+/* Camera models. */
+enum {
+    TP_CAMERA_PINHOLE = 0, /* params: fx fy cx cy k1 k2 p1 p2 */
+    TP_CAMERA_FISHEYE = 1, /* params: fx fy cx cy k1 k2 k3 k4 (Kannala-Brandt) */
+    TP_CAMERA_OMNI = 2     /* params: xi fx fy cx cy k1 k2 p1 p2 (Mei) */
+};
+
+typedef struct tp_camera {
+    uint32_t kind;
+    uint32_t width, height;
+    double params[12]; /* unused entries zero */
+} tp_camera;
+
+/* How a candidate ended. */
+enum { TP_CONFIRMED = 0, TP_REJECTED = 1, TP_EXPIRED = 2 };
+
+typedef struct tp_verdict {
+    /* The id tp_verifier_submit returned. */
+    uint64_t id;
+    int outcome;
+    /* Feature matches supporting the pose (found, when rejected). */
+    uint32_t inliers;
+    int64_t query_keyframe, match_keyframe;
+    /* Confirmed: the rotation taking query-camera bearings into the match
+     * camera (row-major), and the query camera's centre seen from the match
+     * camera (unit length; zero for a pure rotation). */
+    double match_R_query[9];
+    double match_t_query[3];
+    /* Rejected or expired: why, as text. */
+    char reason[64];
+} tp_verdict;
+
+/* Connects to the verifier services under prefix (the verifier's
+ * --prefix); works whether or not the verifier runs yet. A candidate
+ * without a verdict after timeout_s seconds expires. NULL on failure.
+ * iceoryx2 logs errors only, unless IOX2_LOG_LEVEL says otherwise. */
+tp_verifier *tp_verifier_connect(const char *prefix, double timeout_s);
+
+/* Waits up to seconds for the verifier's heartbeat: 1 when heard, else 0. */
+int tp_verifier_wait(tp_verifier *verifier, double seconds);
+
+/* Publishes a keyframe: height rows of stride bytes of 8-bit grey pixels
+ * (stride >= camera->width), copied once into shared memory. */
+int tp_verifier_publish_keyframe(tp_verifier *verifier, int64_t keyframe, double t,
+                                 const tp_camera *camera, const uint8_t *gray,
+                                 size_t stride);
+
+/* Submits a candidate of tp_detector_poll (it must have keyframes): returns
+ * its verdict id, or 0 on error (ids are never 0). */
+uint64_t tp_verifier_submit(tp_verifier *verifier, const tp_candidate *candidate);
+
+/* Copies up to capacity verdicts reached since the last poll into out and
+ * returns how many (never waits); the rest wait for the next call. */
+int64_t tp_verifier_poll(tp_verifier *verifier, tp_verdict *out, size_t capacity);
+
+/* Frees the link (NULL is ignored); undecided candidates are dropped. */
+void tp_verifier_free(tp_verifier *verifier);
 
 #ifdef __cplusplus
 }

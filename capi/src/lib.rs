@@ -5,7 +5,8 @@
 //!
 //! Every entry point checks its pointers, catches panics (a panic never
 //! unwinds into C) and reports failures through `tp_last_error`. The types
-//! below mirror the header field for field (`#[repr(C)]`).
+//! mirror the header field for field (`#[repr(C)]`). This file holds the
+//! detector; `verifier.rs` the link to the visual verifier sidecar.
 
 use std::cell::RefCell;
 use std::collections::VecDeque;
@@ -13,17 +14,23 @@ use std::ffi::{c_char, c_int, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use nalgebra::Vector3;
+
+mod verifier;
 use turnprint::online::{
     CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Pushed, Rejection, Source, Summary,
 };
+pub use verifier::{
+    tp_verifier_connect, tp_verifier_free, tp_verifier_poll, tp_verifier_publish_keyframe,
+    tp_verifier_submit, tp_verifier_wait, TpCamera, TpVerdict, TpVerifier,
+};
 
 /// `TP_ACCEPTED` and the rejection codes of `tp_detector_push`.
-const TP_ACCEPTED: c_int = 0;
+pub(crate) const TP_ACCEPTED: c_int = 0;
 const TP_REJECTED_NON_FINITE: c_int = 1;
 const TP_REJECTED_OUT_OF_ORDER: c_int = 2;
 const TP_REJECTED_DUPLICATE: c_int = 3;
 /// Any failure; `tp_last_error` says which.
-const TP_ERROR: c_int = -1;
+pub(crate) const TP_ERROR: c_int = -1;
 
 /// Settings (`tp_options`).
 #[repr(C)]
@@ -89,6 +96,10 @@ pub struct TpCandidate {
     pub query_keyframe: i64,
     /// Keyframe to compare on the match side.
     pub match_keyframe: i64,
+    /// Pose index of `query_keyframe`.
+    pub query_keyframe_pose: u64,
+    /// Pose index of `match_keyframe`.
+    pub match_keyframe_pose: u64,
 }
 
 /// Counts of a run (`tp_summary`).
@@ -130,13 +141,13 @@ thread_local! {
     static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
 }
 
-fn set_error(message: &str) {
+pub(crate) fn set_error(message: &str) {
     let text = CString::new(message.replace('\0', " ")).unwrap_or_default();
     LAST_ERROR.with(|e| *e.borrow_mut() = text);
 }
 
 /// Runs `body`, turning a panic into `on_panic` and an error message.
-fn guarded<T>(name: &str, on_panic: T, body: impl FnOnce() -> T) -> T {
+pub(crate) fn guarded<T>(name: &str, on_panic: T, body: impl FnOnce() -> T) -> T {
     match catch_unwind(AssertUnwindSafe(body)) {
         Ok(value) => value,
         Err(panic) => {
@@ -342,10 +353,17 @@ fn candidate(e: &CandidateEvent) -> TpCandidate {
             rotation[3 * r + c] = h.rotation[(r, c)];
         }
     }
-    let (has_keyframes, query_keyframe, match_keyframe) = match e.keyframes {
-        Some(k) => (1, k.query_keyframe as i64, k.match_keyframe as i64),
-        None => (0, -1, -1),
-    };
+    let (has_keyframes, query_keyframe, match_keyframe, query_keyframe_pose, match_keyframe_pose) =
+        match e.keyframes {
+            Some(k) => (
+                1,
+                k.query_keyframe as i64,
+                k.match_keyframe as i64,
+                k.query_pose as u64,
+                k.match_pose as u64,
+            ),
+            None => (0, -1, -1, 0, 0),
+        };
     TpCandidate {
         id: e.id,
         at_pose: e.at_pose as u64,
@@ -367,6 +385,8 @@ fn candidate(e: &CandidateEvent) -> TpCandidate {
         has_keyframes,
         query_keyframe,
         match_keyframe,
+        query_keyframe_pose,
+        match_keyframe_pose,
     }
 }
 

@@ -172,3 +172,112 @@ fn a_live_cpp_loop_that_never_waits_loses_no_candidate() {
     );
     assert!(printed > 0);
 }
+
+/// A process killed when dropped, so a failing test leaves no verifier.
+struct Killed(std::process::Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// A real KITTI 06 frame (`tests/data/images`) as raw 8-bit grey rows;
+/// returns the file and the image's width and height.
+fn raw_kitti06(frame: u32) -> (PathBuf, u32, u32) {
+    let png = manifest().join(format!("../tests/data/images/kitti06-{frame}.png"));
+    let decoder = png::Decoder::new(std::fs::File::open(&png).expect("KITTI frame"));
+    let mut reader = decoder.read_info().expect("PNG header");
+    let mut pixels = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut pixels).expect("PNG pixels");
+    assert_eq!(
+        (info.color_type, info.bit_depth),
+        (png::ColorType::Grayscale, png::BitDepth::Eight)
+    );
+    pixels.truncate(info.buffer_size());
+    let raw = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("kitti06-{frame}.gray"));
+    std::fs::write(&raw, &pixels).unwrap();
+    (raw, info.width, info.height)
+}
+
+#[test]
+fn the_verifier_from_c_confirms_rejects_and_outlives_its_own_death() {
+    use std::io::{BufRead, BufReader, Write};
+    use std::process::Stdio;
+
+    // The sidecar cargo builds with the workspace (`--features verifier`).
+    let deps = std::env::current_exe()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .to_path_buf();
+    let binary = deps.join("../turnprint-verifier");
+    assert!(
+        binary.exists(),
+        "no {}: build it with `cargo build --release --features verifier`",
+        binary.display()
+    );
+    let program = compile(
+        "cc",
+        &["-std=c99", "-Wall", "-Werror"],
+        "tests/verify_keyframes.c",
+        "verify_keyframes",
+    );
+    let prefix = format!("capi-{}", std::process::id());
+    let stderr = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("verifier-stderr.txt");
+    let mut verifier = Killed(
+        Command::new(&binary)
+            .args(["--prefix", &prefix, "--heartbeat-ms", "20"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&stderr).unwrap())
+            .spawn()
+            .expect("start turnprint-verifier"),
+    );
+    let (f12, width, height) = raw_kitti06(12);
+    let (f13, ..) = raw_kitti06(13);
+    let mut c = Killed(
+        Command::new(&program)
+            .arg(&prefix)
+            .arg(width.to_string())
+            .arg(height.to_string())
+            .arg(&f12)
+            .arg(&f13)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut lines = BufReader::new(c.0.stdout.take().unwrap()).lines();
+    let first = lines.next().and_then(|l| l.ok()).unwrap_or_default();
+    assert_eq!(
+        first,
+        "kill",
+        "verifier stderr: {}",
+        std::fs::read_to_string(&stderr).unwrap_or_default()
+    );
+    // kill -9: no goodbye, the client notices the missing heartbeats.
+    verifier.0.kill().unwrap();
+    verifier.0.wait().unwrap();
+    writeln!(c.0.stdin.take().unwrap(), "go").unwrap();
+    let last = lines.next().and_then(|l| l.ok()).unwrap_or_default();
+    assert!(c.0.wait().unwrap().success(), "{last}");
+    assert!(last.starts_with("ok confirmed with "), "{last}");
+    assert!(last.contains("expired (verifier"), "{last}");
+}
+
+#[test]
+fn a_candidate_with_no_verifier_running_expires_from_c() {
+    let program = compile(
+        "cc",
+        &["-std=c99", "-Wall", "-Werror"],
+        "tests/verify_keyframes.c",
+        "verify_keyframes_absent",
+    );
+    let out = run(
+        &program,
+        &[&format!("capi-absent-{}", std::process::id()), "absent"],
+    );
+    assert_eq!(out.trim(), "ok expired: verifier absent");
+}
