@@ -4,4 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-cargo test --workspace --all-features --release 2>&1
+# The library, the CLI, the verifier sidecar and the evaluation.
+cargo test --all-features --release 2>&1
+# The C ABI, built as a C or C++ caller builds it (no OpenCV in it); its
+# verifier test runs the sidecar the line above built.
+cargo test --release -p turnprint-capi 2>&1

@@ -1,6 +1,9 @@
-//! The C ABI from real C and C++ programs: `examples/vo_loop.cpp` and
-//! `tests/lost_track.c` are compiled against `include/turnprint.h` and the
-//! static library cargo built for these tests, then run.
+//! The C ABI from real C, C++ and Python programs: `examples/vo_loop.cpp`,
+//! `tests/lost_track.c` and `tests/verify_keyframes.c` are compiled
+//! against `include/turnprint.h` and the static library cargo built for
+//! these tests, `examples/vo_loop.py` loads the shared one, then each runs.
+//! Run them as a C caller builds the library, `cargo test --release -p
+//! turnprint-capi` (`scripts/test.sh` does), after the sidecar is built.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -37,7 +40,11 @@ fn compile(compiler: &str, flags: &[&str], source: &str, name: &str) -> PathBuf 
         .arg(&out)
         .status()
         .unwrap_or_else(|e| panic!("cannot run {compiler}: {e} (scripts/setup.sh installs it)"));
-    assert!(status.success(), "{compiler} failed on {source}");
+    assert!(
+        status.success(),
+        "{compiler} failed on {source} (under the workspace's --all-features, turnprint \
+         carries OpenCV into the library: run `cargo test --release -p turnprint-capi`)"
+    );
     out
 }
 
