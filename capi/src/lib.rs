@@ -279,20 +279,37 @@ pub unsafe extern "C" fn tp_detector_poll(
             set_error("tp_detector_poll: detector is NULL");
             return TP_ERROR as i64;
         };
-        if out.is_null() && capacity > 0 {
-            set_error("tp_detector_poll: out is NULL");
-            return TP_ERROR as i64;
-        }
         if let Some(detector) = &d.detector {
             d.waiting.extend(detector.poll());
         }
-        let n = capacity.min(d.waiting.len());
-        for (i, event) in d.waiting.drain(..n).enumerate() {
-            // SAFETY: `out` holds `capacity` > `i` candidates.
-            unsafe { out.add(i).write(candidate(&event)) };
-        }
-        n as i64
+        // SAFETY: `out` holds `capacity` candidates, as the caller promises.
+        unsafe { hand_over("tp_detector_poll", &mut d.waiting, out, capacity, candidate) }
     })
+}
+
+/// Moves up to `capacity` items of `waiting` into the caller's array `out`
+/// (converted) and returns how many; `TP_ERROR` when `out` is NULL with a
+/// nonzero capacity. What does not fit waits for the next call.
+///
+/// # Safety
+/// `out` is NULL or points to `capacity` writable `U`s.
+pub(crate) unsafe fn hand_over<T, U>(
+    name: &str,
+    waiting: &mut VecDeque<T>,
+    out: *mut U,
+    capacity: usize,
+    convert: impl Fn(&T) -> U,
+) -> i64 {
+    if out.is_null() && capacity > 0 {
+        set_error(&format!("{name}: out is NULL"));
+        return TP_ERROR as i64;
+    }
+    let n = capacity.min(waiting.len());
+    for (i, item) in waiting.drain(..n).enumerate() {
+        // SAFETY: `out` holds `capacity` > `i` items.
+        unsafe { out.add(i).write(convert(&item)) };
+    }
+    n as i64
 }
 
 /// Ends the stream and writes the counts to `summary` (may be NULL).

@@ -14,7 +14,7 @@ use turnprint::online::events::KeyframePair;
 use turnprint::online::{CandidateEvent, Source};
 use turnprint::Hypothesis;
 
-use crate::{guarded, set_error, TpCandidate, TP_ACCEPTED, TP_ERROR};
+use crate::{guarded, hand_over, set_error, TpCandidate, TP_ACCEPTED, TP_ERROR};
 
 /// A camera (`tp_camera`).
 #[repr(C)]
@@ -209,17 +209,9 @@ pub unsafe extern "C" fn tp_verifier_poll(
             set_error("tp_verifier_poll: verifier is NULL");
             return TP_ERROR as i64;
         };
-        if out.is_null() && capacity > 0 {
-            set_error("tp_verifier_poll: out is NULL");
-            return TP_ERROR as i64;
-        }
         v.waiting.extend(v.client.poll());
-        let n = capacity.min(v.waiting.len());
-        for (i, outcome) in v.waiting.drain(..n).enumerate() {
-            // SAFETY: `out` holds `capacity` > `i` verdicts.
-            unsafe { out.add(i).write(verdict(&outcome)) };
-        }
-        n as i64
+        // SAFETY: `out` holds `capacity` verdicts, as the caller promises.
+        unsafe { hand_over("tp_verifier_poll", &mut v.waiting, out, capacity, verdict) }
     })
 }
 

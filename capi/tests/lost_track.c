@@ -8,14 +8,7 @@
 
 #include <turnprint.h>
 
-#define CHECK(cond)                                                    \
-    do {                                                               \
-        if (!(cond)) {                                                 \
-            printf("failed: %s (line %d; last error: %s)\n", #cond,    \
-                   __LINE__, tp_last_error());                         \
-            return 1;                                                  \
-        }                                                              \
-    } while (0)
+#include "check.h"
 
 int main(void) {
     tp_options options;

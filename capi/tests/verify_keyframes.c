@@ -21,14 +21,7 @@
 
 #include <turnprint.h>
 
-#define CHECK(cond)                                                    \
-    do {                                                               \
-        if (!(cond)) {                                                 \
-            printf("failed: %s (line %d; last error: %s)\n", #cond,    \
-                   __LINE__, tp_last_error());                         \
-            return 1;                                                  \
-        }                                                              \
-    } while (0)
+#include "check.h"
 
 static void nap(void) {
     struct timespec ms10 = {0, 10 * 1000 * 1000};
