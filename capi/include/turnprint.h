@@ -135,6 +135,36 @@ void tp_detector_free(tp_detector *detector);
 /* The last error of this thread, or "" (valid until the next call). */
 const char *tp_last_error(void);
 
+/* ---- Whole paths: map merging and loops --------------------------------
+ * A path is poses * 3 doubles (x y z per pose, any unit and frame). */
+
+/* A hypothesis: the range of A and the range of B that are one road, and
+ * the similarity mapping B onto A:
+ *     p_A = scale * rotation * p_B + translation   (rotation row-major) */
+typedef struct tp_hypothesis {
+    uint64_t a_first, a_last;
+    uint64_t b_first, b_last;
+    double score, zncc;
+    int reversed; /* 1 when B runs the other way */
+    double scale;
+    double rotation[9];
+    double translation[3];
+    double rmse;        /* residual of the overlap, A's units */
+    double turning_deg; /* turning inside the overlap */
+    double length;      /* matched length, A's units */
+} tp_hypothesis;
+
+/* Where path B overlaps path A (unknown scale, frame and direction): up to
+ * capacity hypotheses, best first; returns how many, or TP_ERROR (too few
+ * poses, a NaN, a path that never moves: tp_last_error()). */
+int64_t tp_match_paths(const double *a, size_t a_poses, const double *b, size_t b_poses,
+                       tp_hypothesis *out, size_t capacity);
+
+/* Places path A revisits: A's range is the later part (query), B's the
+ * earlier (match), both pose ranges of A; the similarity maps the earlier
+ * part onto the later. Returns how many, or TP_ERROR. */
+int64_t tp_find_loops(const double *a, size_t poses, tp_hypothesis *out, size_t capacity);
+
 /* ---- The visual verifier sidecar --------------------------------------
  * Shape proposes, images decide. Run `turnprint-verifier --prefix P` next
  * to the VO process (cargo build --release --features verifier); the VO

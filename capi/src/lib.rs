@@ -13,7 +13,10 @@ use std::collections::VecDeque;
 use std::ffi::{c_char, c_int, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
+
+mod batch;
+pub use batch::{tp_find_loops, tp_match_paths, TpHypothesis};
 
 mod verifier;
 use turnprint::online::{
@@ -364,12 +367,6 @@ pub extern "C" fn tp_last_error() -> *const c_char {
 /// A candidate event in the header's layout.
 fn candidate(e: &CandidateEvent) -> TpCandidate {
     let h = &e.hypothesis;
-    let mut rotation = [0.0; 9];
-    for r in 0..3 {
-        for c in 0..3 {
-            rotation[3 * r + c] = h.rotation[(r, c)];
-        }
-    }
     let (has_keyframes, query_keyframe, match_keyframe, query_keyframe_pose, match_keyframe_pose) =
         match e.keyframes {
             Some(k) => (
@@ -397,7 +394,7 @@ fn candidate(e: &CandidateEvent) -> TpCandidate {
             Source::DriftProbe => 2,
         },
         scale: h.scale,
-        rotation,
+        rotation: row_major(&h.rotation),
         translation: [h.translation.x, h.translation.y, h.translation.z],
         has_keyframes,
         query_keyframe,
@@ -405,6 +402,11 @@ fn candidate(e: &CandidateEvent) -> TpCandidate {
         query_keyframe_pose,
         match_keyframe_pose,
     }
+}
+
+/// A rotation as the header's row-major array.
+pub(crate) fn row_major(m: &Matrix3<f64>) -> [f64; 9] {
+    std::array::from_fn(|i| m[(i / 3, i % 3)])
 }
 
 /// The counts in the header's layout.

@@ -14,7 +14,7 @@ use turnprint::online::events::KeyframePair;
 use turnprint::online::{CandidateEvent, Source};
 use turnprint::Hypothesis;
 
-use crate::{guarded, hand_over, set_error, TpCandidate, TP_ACCEPTED, TP_ERROR};
+use crate::{guarded, hand_over, row_major, set_error, TpCandidate, TP_ACCEPTED, TP_ERROR};
 
 /// A camera (`tp_camera`).
 #[repr(C)]
@@ -288,11 +288,7 @@ fn verdict(o: &Outcome) -> TpVerdict {
             ..
         } => {
             v.inliers = *inliers;
-            for r in 0..3 {
-                for k in 0..3 {
-                    v.match_R_query[3 * r + k] = match_R_query[(r, k)];
-                }
-            }
+            v.match_R_query = row_major(match_R_query);
             v.match_t_query = [match_t_query.x, match_t_query.y, match_t_query.z];
             String::new()
         }
