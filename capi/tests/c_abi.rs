@@ -289,25 +289,15 @@ fn a_candidate_with_no_verifier_running_expires_from_c() {
     assert_eq!(out.trim(), "ok expired: verifier absent");
 }
 
-#[test]
-fn whole_paths_from_c_give_the_librarys_merges_and_loops() {
+/// The lines `merge_paths.c` and `merge_paths.py` print for KITTI 00 mono
+/// onto its ground truth and the mono estimate's loops, made by the
+/// library itself (top 5 of each).
+fn library_merges_and_loops(gt: &Path, mono: &Path) -> Vec<String> {
     use turnprint::io::{read_trajectory, Format};
     use turnprint::{find_loops, match_paths, Config, Hypothesis};
 
-    let program = compile(
-        "cc",
-        &["-std=c99", "-Wall", "-Werror"],
-        "tests/merge_paths.c",
-        "merge_paths",
-    );
-    let (gt, mono) = (
-        manifest().join("../tests/data/00.txt"),
-        manifest().join(KITTI_00_MONO),
-    );
-    let out = run(&program, &[gt.to_str().unwrap(), mono.to_str().unwrap()]);
-
-    let a = read_trajectory(&gt, Format::Kitti).unwrap();
-    let b = read_trajectory(&mono, Format::Tum).unwrap();
+    let a = read_trajectory(gt, Format::Kitti).unwrap();
+    let b = read_trajectory(mono, Format::Tum).unwrap();
     let line = |what: &str, h: &Hypothesis| {
         format!(
             "{what} a={}-{} b={}-{} score={:.4} scale={:.4} reversed={}",
@@ -321,26 +311,68 @@ fn whole_paths_from_c_give_the_librarys_merges_and_loops() {
         )
     };
     let top5 = |c: Config| Config { top_k: 5, ..c };
-    let mut expected: Vec<String> = match_paths(&a, &b, &top5(Config::for_matching()))
+    let mut lines: Vec<String> = match_paths(&a, &b, &top5(Config::for_matching()))
         .unwrap()
         .iter()
         .map(|h| line("match", h))
         .collect();
-    expected.extend(
+    lines.extend(
         find_loops(&b, &top5(Config::for_loops()))
             .unwrap()
             .iter()
             .map(|h| line("loop", h)),
     );
-    assert_eq!(out.lines().collect::<Vec<_>>(), expected);
     // The monocular estimate onto the ground truth at its true scale (about
-    // 16) as rank 1, and its big revisit as the first loop.
+    // 16) as rank 1, and its big revisit among the loops.
     assert!(
-        expected[0].starts_with("match a=7-4535 b=0-4536"),
+        lines[0].starts_with("match a=7-4535 b=0-4536"),
         "{}",
-        expected[0]
+        lines[0]
     );
-    assert!(expected
+    assert!(lines
         .iter()
         .any(|l| l.starts_with("loop a=3384-3848 b=380-953")));
+    lines
+}
+
+#[test]
+fn whole_paths_from_c_give_the_librarys_merges_and_loops() {
+    let program = compile(
+        "cc",
+        &["-std=c99", "-Wall", "-Werror"],
+        "tests/merge_paths.c",
+        "merge_paths",
+    );
+    let (gt, mono) = (
+        manifest().join("../tests/data/00.txt"),
+        manifest().join(KITTI_00_MONO),
+    );
+    let out = run(&program, &[gt.to_str().unwrap(), mono.to_str().unwrap()]);
+    assert_eq!(
+        out.lines().collect::<Vec<_>>(),
+        library_merges_and_loops(&gt, &mono)
+    );
+}
+
+#[test]
+fn whole_paths_from_python_give_the_librarys_merges_and_loops() {
+    let (gt, mono) = (
+        manifest().join("../tests/data/00.txt"),
+        manifest().join(KITTI_00_MONO),
+    );
+    let out = Command::new("python3")
+        .arg(manifest().join("tests/merge_paths.py"))
+        .args([&gt, &mono, &library().with_extension("so")])
+        .output()
+        .expect("python3 (scripts/setup.sh installs it)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(
+        out.lines().collect::<Vec<_>>(),
+        library_merges_and_loops(&gt, &mono)
+    );
 }
