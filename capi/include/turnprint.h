@@ -1,9 +1,14 @@
 /*
- * turnprint: the online loop-closure detector from C and C++.
+ * turnprint from C and C++ (and Python, capi/python/turnprint.py):
+ * - the online loop-closure detector: push one pose at a time from the
+ *   odometry thread (under a microsecond; matching runs on the detector's
+ *   own worker thread), poll the candidates whenever convenient;
+ * - the link to the visual verifier sidecar, which confirms candidates on
+ *   the keyframes' images;
+ * - whole paths: where two maps overlap (merging) and where one revisits
+ *   itself.
  *
- * Push one pose at a time from the odometry thread (about half a
- * microsecond; matching runs on the detector's own worker thread), poll the
- * candidates whenever convenient. Build the library with
+ * Build the library with
  *
  *     cargo build --release -p turnprint-capi
  *
@@ -12,8 +17,9 @@
  *
  * Every function is safe to call with NULL pointers (it returns an error
  * code) and never lets a Rust panic cross into the caller: a failure
- * returns TP_ERROR and tp_last_error() says why. A detector is used from
- * one thread at a time.
+ * returns TP_ERROR (or NULL, or 0 where a function returns an id) and
+ * tp_last_error() says why. A detector or verifier link is used from one
+ * thread at a time.
  */
 #ifndef TURNPRINT_H
 #define TURNPRINT_H
