@@ -49,7 +49,10 @@ fn compile(compiler: &str, flags: &[&str], source: &str, name: &str) -> PathBuf 
 }
 
 fn run(program: &Path, args: &[&str]) -> String {
-    let out = Command::new(program).args(args).output().expect("run");
+    let out = Command::new(program)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", program.display()));
     assert!(
         out.status.success(),
         "{} failed: {}{}",
@@ -58,6 +61,15 @@ fn run(program: &Path, args: &[&str]) -> String {
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8(out.stdout).expect("utf-8")
+}
+
+/// Runs a Python script of this crate (python3: `scripts/setup.sh`
+/// installs it) and returns its output.
+fn run_python(script: &str, args: &[&str]) -> String {
+    let script = manifest().join(script);
+    let mut all = vec![script.to_str().unwrap()];
+    all.extend_from_slice(args);
+    run(Path::new("python3"), &all)
 }
 
 const KITTI_00_MONO: &str = "../tests/data/00_orbslam2_tum.txt";
@@ -143,20 +155,15 @@ fn the_python_vo_loop_gets_the_candidates_of_the_rust_detector() {
     // declares them must match the header's, or every field shifts.
     let shared = library().with_extension("so");
     let path = manifest().join(KITTI_00_MONO);
-    let out = Command::new("python3")
-        .arg(manifest().join("examples/vo_loop.py"))
-        .arg(&path)
-        .arg("--wait")
-        .arg("--lib")
-        .arg(&shared)
-        .output()
-        .expect("python3 (scripts/setup.sh installs it)");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = run_python(
+        "examples/vo_loop.py",
+        &[
+            path.to_str().unwrap(),
+            "--wait",
+            "--lib",
+            shared.to_str().unwrap(),
+        ],
     );
-    let out = String::from_utf8(out.stdout).unwrap();
     assert_eq!(candidate_lines(&out), rust_candidates(&path));
     assert!(out
         .lines()
@@ -360,17 +367,15 @@ fn whole_paths_from_python_give_the_librarys_merges_and_loops() {
         manifest().join("../tests/data/00.txt"),
         manifest().join(KITTI_00_MONO),
     );
-    let out = Command::new("python3")
-        .arg(manifest().join("tests/merge_paths.py"))
-        .args([&gt, &mono, &library().with_extension("so")])
-        .output()
-        .expect("python3 (scripts/setup.sh installs it)");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let shared = library().with_extension("so");
+    let out = run_python(
+        "tests/merge_paths.py",
+        &[
+            gt.to_str().unwrap(),
+            mono.to_str().unwrap(),
+            shared.to_str().unwrap(),
+        ],
     );
-    let out = String::from_utf8(out.stdout).unwrap();
     assert_eq!(
         out.lines().collect::<Vec<_>>(),
         library_merges_and_loops(&gt, &mono)
