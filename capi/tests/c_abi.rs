@@ -48,6 +48,16 @@ fn compile(compiler: &str, flags: &[&str], source: &str, name: &str) -> PathBuf 
     out
 }
 
+/// A C test program, as C99 with every warning an error.
+fn compile_c(source: &str, name: &str) -> PathBuf {
+    compile("cc", &["-std=c99", "-Wall", "-Werror"], source, name)
+}
+
+/// A C++ program, optimised, with every warning an error.
+fn compile_cpp(source: &str, name: &str) -> PathBuf {
+    compile("c++", &["-O2", "-Wall", "-Werror"], source, name)
+}
+
 fn run(program: &Path, args: &[&str]) -> String {
     let out = Command::new(program)
         .args(args)
@@ -76,12 +86,7 @@ const KITTI_00_MONO: &str = "../tests/data/00_orbslam2_tum.txt";
 
 #[test]
 fn misuse_and_lost_poses_from_c_get_codes_and_messages_not_crashes() {
-    let program = compile(
-        "cc",
-        &["-std=c99", "-Wall", "-Werror"],
-        "tests/lost_track.c",
-        "lost_track",
-    );
+    let program = compile_c("tests/lost_track.c", "lost_track");
     let out = run(&program, &[]);
     assert!(out.starts_with("ok "), "{out}");
 }
@@ -136,12 +141,7 @@ fn candidate_lines(out: &str) -> Vec<&str> {
 
 #[test]
 fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
-    let program = compile(
-        "c++",
-        &["-O2", "-Wall", "-Werror"],
-        "examples/vo_loop.cpp",
-        "vo_loop",
-    );
+    let program = compile_cpp("examples/vo_loop.cpp", "vo_loop");
     let path = manifest().join(KITTI_00_MONO);
     let out = run(&program, &[path.to_str().unwrap(), "--wait"]);
     let expected = rust_candidates(&path);
@@ -174,7 +174,7 @@ fn the_python_vo_loop_gets_the_candidates_of_the_rust_detector() {
 
 #[test]
 fn a_live_cpp_loop_that_never_waits_loses_no_candidate() {
-    let program = compile("c++", &["-O2"], "examples/vo_loop.cpp", "vo_loop_live");
+    let program = compile_cpp("examples/vo_loop.cpp", "vo_loop_live");
     let path = manifest().join(KITTI_00_MONO);
     let out = run(&program, &[path.to_str().unwrap()]);
     let printed = out.lines().filter(|l| l.starts_with("candidate")).count();
@@ -232,12 +232,7 @@ fn the_verifier_from_c_confirms_rejects_and_outlives_its_own_death() {
         "no {}: build it with `cargo build --release --features verifier`",
         binary.display()
     );
-    let program = compile(
-        "cc",
-        &["-std=c99", "-Wall", "-Werror"],
-        "tests/verify_keyframes.c",
-        "verify_keyframes",
-    );
+    let program = compile_c("tests/verify_keyframes.c", "verify_keyframes");
     let prefix = format!("capi-{}", std::process::id());
     let stderr = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("verifier-stderr.txt");
     let mut verifier = Killed(
@@ -283,12 +278,7 @@ fn the_verifier_from_c_confirms_rejects_and_outlives_its_own_death() {
 
 #[test]
 fn a_candidate_with_no_verifier_running_expires_from_c() {
-    let program = compile(
-        "cc",
-        &["-std=c99", "-Wall", "-Werror"],
-        "tests/verify_keyframes.c",
-        "verify_keyframes_absent",
-    );
+    let program = compile_c("tests/verify_keyframes.c", "verify_keyframes_absent");
     let out = run(
         &program,
         &[&format!("capi-absent-{}", std::process::id()), "absent"],
@@ -344,12 +334,7 @@ fn library_merges_and_loops(gt: &Path, mono: &Path) -> Vec<String> {
 
 #[test]
 fn whole_paths_from_c_give_the_librarys_merges_and_loops() {
-    let program = compile(
-        "cc",
-        &["-std=c99", "-Wall", "-Werror"],
-        "tests/merge_paths.c",
-        "merge_paths",
-    );
+    let program = compile_c("tests/merge_paths.c", "merge_paths");
     let (gt, mono) = (
         manifest().join("../tests/data/00.txt"),
         manifest().join(KITTI_00_MONO),
