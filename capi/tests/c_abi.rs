@@ -366,3 +366,89 @@ fn whole_paths_from_python_give_the_librarys_merges_and_loops() {
         library_merges_and_loops(&gt, &mono)
     );
 }
+
+/// Runs `cmake` with `args` (`scripts/setup.sh` installs it).
+fn cmake(args: &[&str]) {
+    let out = Command::new("cmake")
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run cmake: {e} (scripts/setup.sh installs it)"));
+    assert!(
+        out.status.success(),
+        "cmake {args:?} failed: {}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A C++ project finds the installed library with `find_package`, a C
+/// program with `pkg-config`: `capi/CMakeLists.txt` installs the header,
+/// both libraries, the CMake package and the `.pc` file into a prefix,
+/// then `examples/CMakeLists.txt` builds the VO loop against it. (The
+/// library is the one cargo built for this test, through
+/// `TURNPRINT_LIBRARY_DIR`: a cargo run inside `cargo test` would wait on
+/// the build directory's lock.)
+#[test]
+fn cmake_and_pkg_config_projects_build_against_the_installed_library() {
+    let tmp = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cmake");
+    let _ = std::fs::remove_dir_all(&tmp);
+    let (build, prefix, app) = (tmp.join("build"), tmp.join("prefix"), tmp.join("app"));
+    let lib_dir = library().parent().unwrap().to_path_buf();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let capi = manifest();
+    cmake(&[
+        "-S",
+        &s(&capi),
+        "-B",
+        &s(&build),
+        &format!("-DTURNPRINT_LIBRARY_DIR={}", s(&lib_dir)),
+    ]);
+    cmake(&["--build", &s(&build)]);
+    cmake(&["--install", &s(&build), "--prefix", &s(&prefix)]);
+    for installed in [
+        "include/turnprint.h",
+        "lib/libturnprint_c.a",
+        "lib/libturnprint_c.so",
+        "lib/cmake/turnprint/turnprintConfig.cmake",
+        "lib/pkgconfig/turnprint.pc",
+    ] {
+        assert!(prefix.join(installed).exists(), "{installed} not installed");
+    }
+
+    // find_package(turnprint) and turnprint::turnprint (static).
+    cmake(&[
+        "-S",
+        &s(&capi.join("examples")),
+        "-B",
+        &s(&app),
+        &format!("-DCMAKE_PREFIX_PATH={}", s(&prefix)),
+        "-DCMAKE_BUILD_TYPE=Release",
+    ]);
+    cmake(&["--build", &s(&app)]);
+    let path = manifest().join(KITTI_00_MONO);
+    let out = run(&app.join("vo_loop"), &[path.to_str().unwrap(), "--wait"]);
+    assert_eq!(candidate_lines(&out), rust_candidates(&path));
+
+    // pkg-config (the shared library, found at run time by its rpath).
+    let flags = Command::new("pkg-config")
+        .args(["--cflags", "--libs", "turnprint"])
+        .env("PKG_CONFIG_PATH", prefix.join("lib/pkgconfig"))
+        .output()
+        .expect("pkg-config (scripts/setup.sh installs it)");
+    assert!(flags.status.success(), "pkg-config found no turnprint.pc");
+    let flags = String::from_utf8(flags.stdout).unwrap();
+    let program = tmp.join("lost_track");
+    let status = Command::new("cc")
+        .args(["-std=c99", "-Wall", "-Werror"])
+        .arg(manifest().join("tests/lost_track.c"))
+        .args(flags.split_whitespace())
+        .arg("-lm")
+        .arg(format!("-Wl,-rpath,{}", s(&prefix.join("lib"))))
+        .arg("-o")
+        .arg(&program)
+        .status()
+        .expect("cc");
+    assert!(status.success(), "cc with pkg-config's flags ({flags}) failed");
+    let out = run(&program, &[]);
+    assert!(out.starts_with("ok "), "{out}");
+}
