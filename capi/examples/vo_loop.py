@@ -4,7 +4,10 @@ step): the same loop as vo_loop.cpp, for a Python or ROS node.
 
     cargo build --release -p turnprint-capi
     python3 capi/examples/vo_loop.py tests/data/00_orbslam2_tum.txt [--wait] \
-        [--lib target/release/libturnprint_c.so]
+        [--lib target/release/libturnprint_c.so] [--set NAME=VALUE ...]
+
+--set changes one of the detector's settings (a field of tp_options, e.g.
+--set proximity=0 --set exclusion_turning=3.14).
 
 Prints the same lines as vo_loop.cpp.
 """
@@ -27,9 +30,14 @@ def show(candidates):
 
 def main(argv):
     if len(argv) < 2:
-        sys.exit("usage: vo_loop.py POSES.tum [--wait] [--lib LIBRARY]")
+        sys.exit("usage: vo_loop.py POSES.tum [--wait] [--lib LIBRARY] [--set NAME=VALUE ...]")
     library = argv[argv.index("--lib") + 1] if "--lib" in argv else None
-    detector = turnprint.Detector(wait_for_matching="--wait" in argv, library=library)
+    settings = {}
+    for i, arg in enumerate(argv):
+        if arg == "--set":
+            name, value = argv[i + 1].split("=", 1)
+            settings[name] = float(value) if "." in value else int(value)
+    detector = turnprint.Detector(wait_for_matching="--wait" in argv, library=library, **settings)
     index = 0
     with open(argv[1]) as poses:
         for line in poses:

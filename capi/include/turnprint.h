@@ -47,6 +47,25 @@ typedef struct tp_options {
      * is matched and the skipped ones are counted (live use, default).
      * 1: push waits for the worker (replaying a file: deterministic). */
     int wait_for_matching;
+    /* Lowest score emitted for a candidate of the drift probe, whose
+     * scores are low by design: the verifier judges it (default 0.005). */
+    double drift_min_score;
+    /* 1: also search near the current position in the map's own frame
+     * (default 1). */
+    int proximity;
+    /* The query's own neighbourhood, left out of the search: the turning
+     * (radians of integrated |curvature|) between a match and the query
+     * (default pi/2). */
+    double exclusion_turning;
+    /* Shape candidates verified per finalised segment, strongest first
+     * (default 8): the matcher's work per segment. */
+    uint32_t max_verify;
+    /* Segments the worker's queue holds before push starts merging (or,
+     * with wait_for_matching, waiting) (default 4). */
+    uint32_t queue_capacity;
+    /* A step longer than this many typical steps is a jump (GPS glitch, VO
+     * failure) and goes through the jump filter (default 25). */
+    double jump_factor;
 } tp_options;
 
 /* One pose as odometry delivers it. */

@@ -33,7 +33,10 @@ class TurnprintError(RuntimeError):
 
 class _Options(C.Structure):
     _fields_ = [("top_k", C.c_uint32), ("min_score", C.c_double),
-                ("drift_probe", C.c_int), ("wait_for_matching", C.c_int)]
+                ("drift_probe", C.c_int), ("wait_for_matching", C.c_int),
+                ("drift_min_score", C.c_double), ("proximity", C.c_int),
+                ("exclusion_turning", C.c_double), ("max_verify", C.c_uint32),
+                ("queue_capacity", C.c_uint32), ("jump_factor", C.c_double)]
 
 
 class _Pose(C.Structure):
@@ -124,17 +127,19 @@ def _rows(values):
 class Detector:
     """The online detector: push poses one at a time, poll candidates."""
 
-    def __init__(self, top_k=None, min_score=None, drift_probe=None,
-                 wait_for_matching=False, library=None):
+    def __init__(self, wait_for_matching=False, library=None, **settings):
+        """settings: any field of tp_options (top_k, min_score, drift_probe,
+        drift_min_score, proximity, exclusion_turning, max_verify,
+        queue_capacity, jump_factor); the others keep the defaults."""
+        self._handle = None
         self._lib = load(library)
         options = _Options()
         self._lib.tp_options_default(C.byref(options))
-        if top_k is not None:
-            options.top_k = top_k
-        if min_score is not None:
-            options.min_score = min_score
-        if drift_probe is not None:
-            options.drift_probe = int(drift_probe)
+        names = {name for name, _ in _Options._fields_}
+        for name, value in settings.items():
+            if name not in names or name == "wait_for_matching":
+                raise TypeError(f"Detector() got an unknown setting {name!r}")
+            setattr(options, name, int(value) if isinstance(value, bool) else value)
         options.wait_for_matching = int(wait_for_matching)
         self._handle = self._lib.tp_detector_new(C.byref(options))
         if not self._handle:

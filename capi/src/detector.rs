@@ -7,7 +7,8 @@ use std::ffi::c_int;
 
 use nalgebra::Vector3;
 use turnprint::online::{
-    CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Pushed, Rejection, Source, Summary,
+    CandidateEvent, Detector, Exclusion, OnlineConfig, Overflow, PoseInput, Pushed, Rejection,
+    Source, Summary,
 };
 
 use crate::{guarded, hand_over, row_major, set_error, TP_ACCEPTED, TP_ERROR};
@@ -29,6 +30,18 @@ pub struct TpOptions {
     pub drift_probe: c_int,
     /// Nonzero: `push` waits for the worker ([`Overflow::Block`]).
     pub wait_for_matching: c_int,
+    /// Lowest score emitted for a drift-probe candidate.
+    pub drift_min_score: f64,
+    /// Nonzero: the proximity probe is on.
+    pub proximity: c_int,
+    /// The query's own neighbourhood, in radians of turning.
+    pub exclusion_turning: f64,
+    /// Shape candidates verified per finalised segment.
+    pub max_verify: u32,
+    /// Messages the worker's queue holds.
+    pub queue_capacity: u32,
+    /// Steps longer than this many typical steps are jumps.
+    pub jump_factor: f64,
 }
 
 /// One pose (`tp_pose`).
@@ -130,6 +143,37 @@ fn default_options() -> TpOptions {
         min_score: c.min_score,
         drift_probe: c.drift_probe as c_int,
         wait_for_matching: 0,
+        drift_min_score: c.drift_min_score,
+        proximity: c.proximity as c_int,
+        exclusion_turning: match c.exclusion {
+            Exclusion::Turning(k) => k,
+            Exclusion::Segments(_) => unreachable!("the default excludes by turning"),
+        },
+        max_verify: c.max_verify as u32,
+        queue_capacity: c.queue_capacity as u32,
+        jump_factor: c.jump_factor,
+    }
+}
+
+/// Why `o` is not a valid setting, if it is not.
+fn invalid(o: &TpOptions) -> Option<&'static str> {
+    let unit = |x: f64| (0.0..=1.0).contains(&x);
+    if o.top_k == 0 {
+        Some("top_k must be at least 1")
+    } else if !unit(o.min_score) {
+        Some("min_score must be a number in [0, 1]")
+    } else if !unit(o.drift_min_score) {
+        Some("drift_min_score must be a number in [0, 1]")
+    } else if !(o.exclusion_turning.is_finite() && o.exclusion_turning >= 0.0) {
+        Some("exclusion_turning must be a finite number of radians, at least 0")
+    } else if o.max_verify == 0 {
+        Some("max_verify must be at least 1")
+    } else if o.queue_capacity == 0 {
+        Some("queue_capacity must be at least 1")
+    } else if !(o.jump_factor.is_finite() && o.jump_factor > 1.0) {
+        Some("jump_factor must be a finite number above 1")
+    } else {
+        None
     }
 }
 
@@ -165,18 +209,20 @@ pub unsafe extern "C" fn tp_detector_new(options: *const TpOptions) -> *mut TpDe
         let o = unsafe { options.as_ref() }
             .copied()
             .unwrap_or_else(default_options);
-        if o.top_k == 0 {
-            set_error("tp_detector_new: top_k must be at least 1");
-            return std::ptr::null_mut();
-        }
-        if !(0.0..=1.0).contains(&o.min_score) {
-            set_error("tp_detector_new: min_score must be a number in [0, 1]");
+        if let Some(why) = invalid(&o) {
+            set_error(&format!("tp_detector_new: {why}"));
             return std::ptr::null_mut();
         }
         let config = OnlineConfig {
             top_k: o.top_k as usize,
             min_score: o.min_score,
             drift_probe: o.drift_probe != 0,
+            drift_min_score: o.drift_min_score,
+            proximity: o.proximity != 0,
+            exclusion: Exclusion::Turning(o.exclusion_turning),
+            max_verify: o.max_verify as usize,
+            queue_capacity: o.queue_capacity as usize,
+            jump_factor: o.jump_factor,
             ..OnlineConfig::default()
         };
         let overflow = match o.wait_for_matching {

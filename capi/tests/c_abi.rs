@@ -95,8 +95,13 @@ fn misuse_and_lost_poses_from_c_get_codes_and_messages_not_crashes() {
 /// from the same poses and keyframes (every fifth pose a keyframe; push
 /// waits for matching).
 fn rust_candidates(path: &Path) -> Vec<String> {
+    rust_candidates_with(path, OnlineConfig::default())
+}
+
+/// [`rust_candidates`] under `config`.
+fn rust_candidates_with(path: &Path, config: OnlineConfig) -> Vec<String> {
     let poses = turnprint::io::read_trajectory(path, turnprint::io::Format::Tum).unwrap();
-    let mut detector = Detector::new(OnlineConfig::default(), Overflow::Block);
+    let mut detector = Detector::new(config, Overflow::Block);
     let mut events = Vec::new();
     for (i, p) in poses.poses.iter().enumerate() {
         detector.push(&PoseInput {
@@ -170,6 +175,54 @@ fn the_python_vo_loop_gets_the_candidates_of_the_rust_detector() {
         .last()
         .unwrap_or_default()
         .starts_with("summary poses=4541 "));
+}
+
+#[test]
+fn every_setting_from_python_reaches_the_detector() {
+    // Each field of tp_options set away from its default, through ctypes
+    // and the C ABI: the candidates are those of the Rust detector under
+    // the same settings, and not those of the defaults.
+    let shared = library().with_extension("so");
+    let path = manifest().join(KITTI_00_MONO);
+    let settings = [
+        "top_k=2",
+        "min_score=0.2",
+        "drift_probe=0",
+        "drift_min_score=0.01",
+        "proximity=0",
+        "exclusion_turning=2.0",
+        "max_verify=4",
+        "queue_capacity=2",
+        "jump_factor=30.0",
+    ];
+    let mut args = vec![
+        path.to_str().unwrap(),
+        "--wait",
+        "--lib",
+        shared.to_str().unwrap(),
+    ];
+    for s in &settings {
+        args.extend(["--set", s]);
+    }
+    let out = run_python("examples/vo_loop.py", &args);
+    let config = OnlineConfig {
+        top_k: 2,
+        min_score: 0.2,
+        drift_probe: false,
+        drift_min_score: 0.01,
+        proximity: false,
+        exclusion: turnprint::online::Exclusion::Turning(2.0),
+        max_verify: 4,
+        queue_capacity: 2,
+        jump_factor: 30.0,
+        ..OnlineConfig::default()
+    };
+    let expected = rust_candidates_with(&path, config);
+    assert!(expected.len() >= 3, "{} candidates", expected.len());
+    assert_eq!(candidate_lines(&out), expected);
+    assert_ne!(expected, rust_candidates(&path));
+    // Only shape candidates: the proximity and drift probes are off.
+    assert!(expected.iter().all(|l| l.contains(" source=0 ")));
 }
 
 #[test]
@@ -448,7 +501,10 @@ fn cmake_and_pkg_config_projects_build_against_the_installed_library() {
         .arg(&program)
         .status()
         .expect("cc");
-    assert!(status.success(), "cc with pkg-config's flags ({flags}) failed");
+    assert!(
+        status.success(),
+        "cc with pkg-config's flags ({flags}) failed"
+    );
     let out = run(&program, &[]);
     assert!(out.starts_with("ok "), "{out}");
 }

@@ -10,6 +10,13 @@
 
 #include "check.h"
 
+static void spoil_top_k(tp_options *o) { o->top_k = 0; }
+static void spoil_drift_min_score(tp_options *o) { o->drift_min_score = -0.5; }
+static void spoil_exclusion_turning(tp_options *o) { o->exclusion_turning = INFINITY; }
+static void spoil_max_verify(tp_options *o) { o->max_verify = 0; }
+static void spoil_queue_capacity(tp_options *o) { o->queue_capacity = 0; }
+static void spoil_jump_factor(tp_options *o) { o->jump_factor = 0.5; }
+
 int main(void) {
     tp_options options;
     CHECK(tp_options_default(NULL) == TP_ERROR);
@@ -21,6 +28,25 @@ int main(void) {
     CHECK(strstr(tp_last_error(), "min_score") != NULL);
     options.min_score = NAN;
     CHECK(tp_detector_new(&options) == NULL);
+
+    /* Each setting out of its range is named in the error. */
+    const struct {
+        const char *name;
+        void (*spoil)(tp_options *);
+    } invalid[] = {
+        {"top_k", spoil_top_k},
+        {"drift_min_score", spoil_drift_min_score},
+        {"exclusion_turning", spoil_exclusion_turning},
+        {"max_verify", spoil_max_verify},
+        {"queue_capacity", spoil_queue_capacity},
+        {"jump_factor", spoil_jump_factor},
+    };
+    for (size_t i = 0; i < sizeof invalid / sizeof invalid[0]; ++i) {
+        CHECK(tp_options_default(&options) == TP_ACCEPTED);
+        invalid[i].spoil(&options);
+        CHECK(tp_detector_new(&options) == NULL);
+        CHECK(strstr(tp_last_error(), invalid[i].name) != NULL);
+    }
 
     tp_detector *d = tp_detector_new(NULL);
     CHECK(d != NULL);

@@ -34,6 +34,15 @@ def main(argv):
     raises(lambda: turnprint.match_paths(a[:3], b), "poses")
     raises(lambda: turnprint.match_paths(a, b[:10] + [(math.nan, 0, 0)] + b[11:]), "non-finite")
     raises(lambda: turnprint.find_loops([(1.0, 1.0, 1.0)] * 200), "does not move")
+    # The detector's settings: out of range, or not one.
+    raises(lambda: turnprint.Detector(min_score=2.0, library=library), "min_score")
+    raises(lambda: turnprint.Detector(max_verify=0, library=library), "max_verify")
+    try:
+        turnprint.Detector(bogus=1, library=library)
+    except TypeError as e:
+        assert "bogus" in str(e), e
+    else:
+        raise AssertionError("an unknown setting was taken")
     for what, found in (("match", turnprint.match_paths(a, b, top=5)),
                         ("loop", turnprint.find_loops(b, top=5))):
         for h in found:
