@@ -8,7 +8,9 @@ use nalgebra::Vector3;
 use rand::{seq::IndexedRandom, Rng};
 use serde::Serialize;
 
-use super::checks::{merge_verdict, merge_verdict_of, overlap, road_turning_deg};
+use super::checks::{
+    merge_verdict, merge_verdict_of, overlap, road_turning_deg, MergeVerdict, Overlap,
+};
 use super::similarity::{random_similarity, rotation_error_deg, scale_error_pct};
 use super::windows::{overlapping_window, random_window, revisit_windows, Window, WindowSpec};
 use super::{Prepared, Source};
@@ -183,18 +185,46 @@ pub fn positive_case(
     )
 }
 
+/// One positive case run in full: the true overlap, how well the best
+/// single similarity could do, and every hypothesis with its verdict.
+#[derive(Debug, Clone)]
+pub struct CaseRun {
+    /// B's poses as the matcher saw them (reversed, under a random
+    /// similarity).
+    pub b_input: Vec<Vector3<f64>>,
+    /// Scale of that similarity and whether B was reversed.
+    pub scale: f64,
+    pub reversed: bool,
+    /// The common road (indices into A's and B's windows).
+    pub truth: Overlap,
+    /// Total turning (degrees) of the common road in the ground truth.
+    pub turning_deg: f64,
+    /// Poses in A's window.
+    pub a_poses: usize,
+    /// The best-fit (Umeyama) similarity of B's common-road poses onto
+    /// their true positions, judged like a hypothesis (`None`: no fit).
+    pub oracle: Option<(Similarity3, MergeVerdict)>,
+    /// The matcher's hypotheses, best first, each with its verdict (empty
+    /// when the oracle fails: such a case is not run).
+    pub hypotheses: Vec<(Hypothesis, MergeVerdict)>,
+    /// Wall time of `match_paths` and its error, if any.
+    pub seconds: f64,
+    pub error: Option<String>,
+}
+
 /// Runs one positive case on given windows (frame ranges of A and B), B
-/// under a random similarity and reversed or not (`None`: B is too short
-/// or shares less than `min_overlap` metres of road with A).
-pub fn window_case(
+/// under a random similarity and reversed or not, keeping the `top_k`
+/// best hypotheses (`None`: B is too short or shares less than
+/// `min_overlap` metres of road with A).
+pub fn run_case(
     rng: &mut impl Rng,
     p: &Prepared,
     source: Source,
     reversed: bool,
     [a_win, b_win]: [Window; 2],
-    kind: &'static str,
     min_overlap: f64,
-) -> Option<MergeCase> {
+    top_k: usize,
+) -> Option<CaseRun> {
     let a_cut = cut(p, Source::Gt, a_win);
     let b_cut = cut(p, source, b_win);
     if b_cut.input.len() < MIN_POSES {
@@ -209,53 +239,82 @@ pub fn window_case(
     let b_traj = Trajectory::from_positions(format!("{}-{}", p.seq.name, source.name()), &b.input);
     let src: Vec<_> = truth.b.iter().map(|&k| b.input[k]).collect();
     let dst: Vec<_> = truth.b.iter().map(|&k| b.truth[k]).collect();
-    let best = Similarity3::fit(&src, &dst);
-    let oracle_correct = best.as_ref().is_some_and(|o| {
+    let oracle = Similarity3::fit(&src, &dst).map(|o| {
         let (a_all, b_all) = (
             [truth.a[0], truth.a[truth.a.len() - 1]],
             [truth.b[0], truth.b[truth.b.len() - 1]],
         );
-        merge_verdict_of(|p| o.apply(p), a_all, b_all, &b.input, &b.truth, &truth).correct
+        let v = merge_verdict_of(|p| o.apply(p), a_all, b_all, &b.input, &b.truth, &truth);
+        (o, v)
     });
     // A case that no similarity can pass is not run (the caller skips it).
-    let (hyps, seconds, error) = if oracle_correct {
-        run_match(&a_traj, &b_traj, 5)
-    } else {
-        (Vec::new(), 0.0, None)
+    let (hyps, seconds, error) = match oracle.as_ref().is_some_and(|(_, v)| v.correct) {
+        true => run_match(&a_traj, &b_traj, top_k),
+        false => (Vec::new(), 0.0, None),
     };
-    let verdicts: Vec<_> = hyps
-        .iter()
-        .map(|h| merge_verdict(h, &b.input, &b.truth, &truth))
+    let hypotheses = hyps
+        .into_iter()
+        .map(|h| {
+            let v = merge_verdict(&h, &b.input, &b.truth, &truth);
+            (h, v)
+        })
         .collect();
-    let rank1_correct = verdicts.first().is_some_and(|v| v.correct);
+    Some(CaseRun {
+        turning_deg: road_turning_deg(&a_cut.truth, &truth.a),
+        a_poses: a_traj.len(),
+        b_input: b.input,
+        scale,
+        reversed,
+        truth,
+        oracle,
+        hypotheses,
+        seconds,
+        error,
+    })
+}
+
+/// Runs one positive case on given windows (frame ranges of A and B), B
+/// under a random similarity and reversed or not (`None`: B is too short
+/// or shares less than `min_overlap` metres of road with A).
+pub fn window_case(
+    rng: &mut impl Rng,
+    p: &Prepared,
+    source: Source,
+    reversed: bool,
+    windows: [Window; 2],
+    kind: &'static str,
+    min_overlap: f64,
+) -> Option<MergeCase> {
+    let run = run_case(rng, p, source, reversed, windows, min_overlap, 5)?;
+    let first = run.hypotheses.first();
+    let rank1_correct = first.is_some_and(|(_, v)| v.correct);
     let (mut rot_err_deg, mut scale_err_pct) = (None, None);
-    if let (true, Some(best)) = (rank1_correct, &best) {
-        let r_true = best.rotation;
-        rot_err_deg = Some(rotation_error_deg(&hyps[0].rotation, &r_true));
-        scale_err_pct = Some(scale_error_pct(hyps[0].scale, best.scale));
+    if let (true, Some((h, _)), Some((best, _))) = (rank1_correct, first, &run.oracle) {
+        rot_err_deg = Some(rotation_error_deg(&h.rotation, &best.rotation));
+        scale_err_pct = Some(scale_error_pct(h.scale, best.scale));
     }
     Some(MergeCase {
         sequence: p.seq.name.clone(),
         source,
         kind,
-        reversed,
-        a_frames: a_win,
-        b_frames: b_win,
-        scale,
-        a_poses: a_traj.len(),
-        b_poses: b_traj.len(),
-        overlap_m: truth.length,
-        overlap_turning_deg: road_turning_deg(&a_cut.truth, &truth.a),
-        rank1_score: hyps.first().map_or(0.0, |h| h.score),
+        reversed: run.reversed,
+        a_frames: windows[0],
+        b_frames: windows[1],
+        scale: run.scale,
+        a_poses: run.a_poses,
+        b_poses: run.b_input.len(),
+        overlap_m: run.truth.length,
+        overlap_turning_deg: run.turning_deg,
+        rank1_score: first.map_or(0.0, |(h, _)| h.score),
         rank1_correct,
-        top5_correct: verdicts.iter().any(|v| v.correct),
-        rank1_error_m: verdicts.first().map(|v| v.median_error),
-        rank1_ranges_hit: verdicts.first().map(|v| v.ranges_hit),
+        top5_correct: run.hypotheses.iter().any(|(_, v)| v.correct),
+        rank1_error_m: first.map(|(_, v)| v.median_error),
+        rank1_ranges_hit: first.map(|(_, v)| v.ranges_hit),
         rot_err_deg,
         scale_err_pct,
-        oracle_correct,
-        seconds,
-        error,
+        oracle_correct: run.oracle.as_ref().is_some_and(|(_, v)| v.correct),
+        seconds: run.seconds,
+        error: run.error,
     })
 }
 
