@@ -13,7 +13,10 @@
  *     cargo build --release -p turnprint-capi
  *
  * and link target/release/libturnprint_c.a (with -lpthread -ldl -lm) or
- * target/release/libturnprint_c.so.
+ * target/release/libturnprint_c.so (--profile dist instead of --release:
+ * the same without debug info, in target/dist). From CMake:
+ * capi/CMakeLists.txt (target turnprint::turnprint); or pkg-config
+ * turnprint once installed.
  *
  * Every function is safe to call with NULL pointers (it returns an error
  * code) and never lets a Rust panic cross into the caller: a failure
