@@ -37,9 +37,9 @@ def main(argv):
         if arg == "--set":
             name, value = argv[i + 1].split("=", 1)
             settings[name] = float(value) if "." in value else int(value)
-    detector = turnprint.Detector(wait_for_matching="--wait" in argv, library=library, **settings)
-    index = 0
-    with open(argv[1]) as poses:
+    with turnprint.Detector(wait_for_matching="--wait" in argv, library=library,
+                            **settings) as detector, open(argv[1]) as poses:
+        index = 0
         for line in poses:
             fields = line.split()
             if not fields or fields[0].startswith("#"):
@@ -49,12 +49,11 @@ def main(argv):
             detector.push(x, y, z, t=t, keyframe=index if index % 5 == 0 else None)
             index += 1
             show(detector.poll())
-    rest, summary = detector.finish()
-    show(rest)
+        rest, summary = detector.finish()
+        show(rest)
     print(f"summary poses={summary['poses']} accepted={summary['accepted']} "
           f"segments={summary['segments']} candidates={summary['candidates']} "
           f"skipped={summary['skipped']} history_bytes={summary['history_bytes']}")
-    detector.close()
 
 
 if __name__ == "__main__":

@@ -185,6 +185,12 @@ class Detector:
             self._lib.tp_detector_free(self._handle)
             self._handle = None
 
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
     def __del__(self):
         self.close()
 
