@@ -88,14 +88,20 @@ _library = None
 
 def load(path=None):
     """Loads the shared library (once): `path`, else $TURNPRINT_LIBRARY, else
-    target/release/libturnprint_c.so of the checkout this file sits in."""
+    libturnprint_c.so in target/release or target/dist of the checkout this
+    file sits in."""
     global _library
     if _library is not None and path is None:
         return _library
     if path is None:
-        path = os.environ.get("TURNPRINT_LIBRARY") or os.path.join(
-            os.path.dirname(os.path.abspath(__file__)), "..", "..", "target", "release",
-            "libturnprint_c.so")
+        path = os.environ.get("TURNPRINT_LIBRARY")
+    if path is None:
+        target = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "target")
+        built = [os.path.join(target, profile, "libturnprint_c.so") for profile in ("release", "dist")]
+        path = next((p for p in built if os.path.exists(p)), None)
+        if path is None:
+            raise OSError("no libturnprint_c.so in target/release or target/dist: build it with "
+                          "`cargo build --release -p turnprint-capi`, or set TURNPRINT_LIBRARY")
     lib = C.CDLL(path)
     lib.tp_options_default.argtypes = [C.POINTER(_Options)]
     lib.tp_detector_new.argtypes = [C.POINTER(_Options)]
