@@ -57,8 +57,8 @@ typedef struct tp_options {
      * (default 1). */
     int proximity;
     /* The query's own neighbourhood, left out of the search: the turning
-     * (radians of integrated |curvature|) between a match and the query
-     * (default pi/2). */
+     * (radians of integrated |curvature|) between a match and the query,
+     * above 0 (default pi/2). */
     double exclusion_turning;
     /* Shape candidates verified per finalised segment, strongest first
      * (default 8): the matcher's work per segment. */

@@ -164,8 +164,8 @@ fn invalid(o: &TpOptions) -> Option<&'static str> {
         Some("min_score must be a number in [0, 1]")
     } else if !unit(o.drift_min_score) {
         Some("drift_min_score must be a number in [0, 1]")
-    } else if !(o.exclusion_turning.is_finite() && o.exclusion_turning >= 0.0) {
-        Some("exclusion_turning must be a finite number of radians, at least 0")
+    } else if !(o.exclusion_turning.is_finite() && o.exclusion_turning > 0.0) {
+        Some("exclusion_turning must be a finite, positive number of radians (0 would let a query match itself)")
     } else if o.max_verify == 0 {
         Some("max_verify must be at least 1")
     } else if o.queue_capacity == 0 {

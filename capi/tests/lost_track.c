@@ -12,7 +12,7 @@
 
 static void spoil_top_k(tp_options *o) { o->top_k = 0; }
 static void spoil_drift_min_score(tp_options *o) { o->drift_min_score = -0.5; }
-static void spoil_exclusion_turning(tp_options *o) { o->exclusion_turning = INFINITY; }
+static void spoil_exclusion_turning(tp_options *o) { o->exclusion_turning = 0.0; }
 static void spoil_max_verify(tp_options *o) { o->max_verify = 0; }
 static void spoil_queue_capacity(tp_options *o) { o->queue_capacity = 0; }
 static void spoil_jump_factor(tp_options *o) { o->jump_factor = 0.5; }
