@@ -100,7 +100,10 @@ enum {
 
 /* A loop-closure candidate: the newest part of the path (query, later)
  * revisits an earlier part (match). Ranges are inclusive pose indices in
- * push order, counting rejected poses too. The similarity maps match
+ * push order, counting rejected poses too; both ends of the match come
+ * before those of the query, and the two ranges overlap only when the
+ * common road is longer than one lap of a circuit driven again. The
+ * similarity maps match
  * points onto the query part:
  *     p_query = scale * rotation * p_match + translation
  * with rotation row-major. Shape proposes; check it against images before

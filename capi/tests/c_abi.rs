@@ -505,6 +505,25 @@ fn cmake_and_pkg_config_projects_build_against_the_installed_library() {
         status.success(),
         "cc with pkg-config's flags ({flags}) failed"
     );
-    let out = run(&program, &[]);
-    assert!(out.starts_with("ok "), "{out}");
+    // The installed library, found by the rpath: cargo's LD_LIBRARY_PATH
+    // (target/<profile>, which may hold an older build) would come first.
+    let out = Command::new(&program)
+        .env_remove("LD_LIBRARY_PATH")
+        .output()
+        .expect("run lost_track");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.starts_with("ok "),
+        "{stdout}"
+    );
+    let ldd = Command::new("ldd")
+        .arg(&program)
+        .env_remove("LD_LIBRARY_PATH")
+        .output()
+        .expect("ldd");
+    let ldd = String::from_utf8_lossy(&ldd.stdout);
+    assert!(
+        ldd.contains(&s(&prefix.join("lib/libturnprint_c.so"))),
+        "not linked with the installed library: {ldd}"
+    );
 }
