@@ -11,7 +11,7 @@ use turnprint::online::{
     Source, Summary,
 };
 
-use crate::{guarded, hand_over, row_major, set_error, TP_ACCEPTED, TP_ERROR};
+use crate::{free_handle, guarded, hand_over, row_major, set_error, TP_ACCEPTED, TP_ERROR};
 
 /// The rejection codes of `tp_detector_push`.
 const TP_REJECTED_NON_FINITE: c_int = 1;
@@ -328,12 +328,9 @@ pub unsafe extern "C" fn tp_detector_finish(
 /// `detector` is NULL or came from `tp_detector_new` and was not freed.
 #[no_mangle]
 pub unsafe extern "C" fn tp_detector_free(detector: *mut TpDetector) {
-    guarded("tp_detector_free", (), || {
-        if !detector.is_null() {
-            // SAFETY: made by `Box::into_raw` in `tp_detector_new`.
-            drop(unsafe { Box::from_raw(detector) });
-        }
-    })
+    // SAFETY: NULL or made by `Box::into_raw` in `tp_detector_new` (the caller's
+    // contract).
+    unsafe { free_handle("tp_detector_free", detector) }
 }
 
 /// A candidate event in the header's layout.

@@ -61,6 +61,20 @@ pub(crate) fn guarded<T>(name: &str, on_panic: T, body: impl FnOnce() -> T) -> T
     }
 }
 
+/// Frees a handle `tp_*_new`/`tp_*_connect` made with `Box::into_raw`
+/// (NULL: nothing to do); a panic while dropping it is caught.
+///
+/// # Safety
+/// `handle` is NULL or came from `Box::into_raw` and was not freed.
+pub(crate) unsafe fn free_handle<T>(name: &str, handle: *mut T) {
+    guarded(name, (), || {
+        if !handle.is_null() {
+            // SAFETY: the caller's contract above.
+            drop(unsafe { Box::from_raw(handle) });
+        }
+    })
+}
+
 /// Moves up to `capacity` items of `waiting` into the caller's array `out`
 /// (converted) and returns how many; `TP_ERROR` when `out` is NULL with a
 /// nonzero capacity. What does not fit waits for the next call.

@@ -14,7 +14,9 @@ use turnprint::online::events::KeyframePair;
 use turnprint::online::{CandidateEvent, Source};
 use turnprint::Hypothesis;
 
-use crate::{guarded, hand_over, row_major, set_error, TpCandidate, TP_ACCEPTED, TP_ERROR};
+use crate::{
+    free_handle, guarded, hand_over, row_major, set_error, TpCandidate, TP_ACCEPTED, TP_ERROR,
+};
 
 /// A camera (`tp_camera`).
 #[repr(C)]
@@ -221,12 +223,9 @@ pub unsafe extern "C" fn tp_verifier_poll(
 /// `verifier` is NULL or came from `tp_verifier_connect` and was not freed.
 #[no_mangle]
 pub unsafe extern "C" fn tp_verifier_free(verifier: *mut TpVerifier) {
-    guarded("tp_verifier_free", (), || {
-        if !verifier.is_null() {
-            // SAFETY: made by `Box::into_raw` in `tp_verifier_connect`.
-            drop(unsafe { Box::from_raw(verifier) });
-        }
-    })
+    // SAFETY: NULL or made by `Box::into_raw` in `tp_verifier_connect` (the caller's
+    // contract).
+    unsafe { free_handle("tp_verifier_free", verifier) }
 }
 
 /// The detector event a `tp_candidate` came from, as far as the verifier
