@@ -1,6 +1,7 @@
 //! Replays one merge case of the evaluation and shows why it went the way
 //! it did: the true common road, how close the best single similarity
-//! gets, and each hypothesis with its verdict. Take the windows from a
+//! gets, whether a failing placement is as well supported by shape
+//! (`turnprint::eval::ambiguity`), and each hypothesis with its verdict. Take the windows from a
 //! failure in `evaluate --json` (`sequence`, `source`, `a_frames`,
 //! `b_frames`, `reversed`).
 //!
@@ -62,6 +63,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             v.median_error, v.tolerance, o.scale
         ),
         None => println!("best single similarity: none"),
+    }
+    if let Some(a) = &run.ambiguity {
+        let t = a.truth;
+        print!(
+            "shape support of the truth: {:.0} m and {:.0}° of B within {:.1} m of A; ",
+            t.length_m, t.turning_deg, a.band_m
+        );
+        match a.best_rival {
+            Some(r) => println!(
+                "best failing rival: {} {:+.2} tolerances, {:.0} m and {:.0}°, error {:.1} m{}",
+                r.kind,
+                r.amount,
+                r.support.length_m,
+                r.support.turning_deg,
+                r.median_error,
+                if a.has_rival() {
+                    " (ambiguous by shape)"
+                } else {
+                    ""
+                }
+            ),
+            None => println!("no failing rival"),
+        }
     }
     if let Some(e) = &run.error {
         println!("match_paths failed: {e}");

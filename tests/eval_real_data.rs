@@ -81,3 +81,31 @@ fn naive_baseline_finds_kitti00_events_on_ground_truth_only() {
         loops.len()
     );
 }
+
+/// KITTI 05's later pass over frames 1288-1570 joins the earlier road from
+/// a side street and leaves it straight on: the 228 m they share is a
+/// straight entered from different turns. Scaled by 3 tolerances about
+/// one end, B lies on A as well as it does in truth, so the case is
+/// ambiguous by shape; a time overlap through turns is not.
+#[test]
+fn a_straight_revisit_of_kitti05_is_ambiguous_by_shape_and_a_turning_overlap_is_not() {
+    use turnprint::eval::merge::run_case;
+    use turnprint::eval::Source;
+    let p = Prepared::new(load_sequence(Path::new("tests/data"), "05").expect("tests/data/05.txt"));
+    let mut rng = StdRng::seed_from_u64(3);
+    let mut ambiguity = |a: [usize; 2], b: [usize; 2], reversed: bool| {
+        let run =
+            run_case(&mut rng, &p, Source::Gt, reversed, [a, b], 150.0, 0).expect("common road");
+        let (_, oracle) = run.oracle.expect("oracle");
+        assert!(oracle.correct && oracle.median_error < 1e-6);
+        run.ambiguity.expect("ambiguity")
+    };
+    let straight = ambiguity([88, 988], [1288, 1848], true);
+    assert!(straight.has_rival(), "{straight:?}");
+    assert!(straight.truth.turning_deg < 90.0, "{straight:?}");
+    let turning = ambiguity([1897, 2569], [1743, 2227], false);
+    assert!(!turning.has_rival(), "{turning:?}");
+    // Ground truth on its own drive fits A to the centimetre: the band is
+    // its floor.
+    assert_eq!(turning.band_m, turnprint::eval::ambiguity::BAND_M.0);
+}

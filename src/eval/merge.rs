@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use rand::{seq::IndexedRandom, Rng};
 use serde::Serialize;
 
+use super::ambiguity::{shape_rival, Ambiguity};
 use super::checks::{
     merge_verdict, merge_verdict_of, overlap, road_turning_deg, MergeVerdict, Overlap,
 };
@@ -61,6 +62,11 @@ pub struct MergeCase {
     /// more than the tolerance, e.g. mono drift between two passes), the case
     /// is not run and not counted.
     pub oracle_correct: bool,
+    /// Whether shape alone could place B: the truth's support against its
+    /// best failing rival ([`super::ambiguity`]; `None` without an oracle).
+    pub ambiguity: Option<Ambiguity>,
+    /// A failing rival lays as much of B onto A as the truth does.
+    pub shape_rival: bool,
     /// Wall time of `match_paths`.
     pub seconds: f64,
     /// `match_paths` failed (counted as no hypothesis).
@@ -204,6 +210,8 @@ pub struct CaseRun {
     /// The best-fit (Umeyama) similarity of B's common-road poses onto
     /// their true positions, judged like a hypothesis (`None`: no fit).
     pub oracle: Option<(Similarity3, MergeVerdict)>,
+    /// The oracle's support by shape against its best failing rival.
+    pub ambiguity: Option<Ambiguity>,
     /// The matcher's hypotheses, best first, each with its verdict (empty
     /// when the oracle fails: such a case is not run).
     pub hypotheses: Vec<(Hypothesis, MergeVerdict)>,
@@ -247,6 +255,9 @@ pub fn run_case(
         let v = merge_verdict_of(|p| o.apply(p), a_all, b_all, &b.input, &b.truth, &truth);
         (o, v)
     });
+    let ambiguity = oracle
+        .as_ref()
+        .map(|(o, v)| shape_rival(&a_cut.truth, &b.input, &b.truth, &truth, o, v.tolerance));
     // A case that no similarity can pass is not run (the caller skips it).
     let (hyps, seconds, error) = match oracle.as_ref().is_some_and(|(_, v)| v.correct) {
         true => run_match(&a_traj, &b_traj, top_k),
@@ -267,6 +278,7 @@ pub fn run_case(
         reversed,
         truth,
         oracle,
+        ambiguity,
         hypotheses,
         seconds,
         error,
@@ -313,6 +325,8 @@ pub fn window_case(
         rot_err_deg,
         scale_err_pct,
         oracle_correct: run.oracle.as_ref().is_some_and(|(_, v)| v.correct),
+        ambiguity: run.ambiguity,
+        shape_rival: run.ambiguity.is_some_and(|a| a.has_rival()),
         seconds: run.seconds,
         error: run.error,
     })

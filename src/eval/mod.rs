@@ -4,6 +4,7 @@
 //! finding loops on ground truth, mono and drifting paths against the naive
 //! nearest-earlier-position baseline. Results are Markdown tables or JSON.
 
+pub mod ambiguity;
 pub mod auc;
 pub mod baseline;
 pub mod checks;

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use super::ambiguity::{BAND_M, BAND_PER_MISFIT, RIVAL_COVER_SHARE};
 use super::auc::roc_auc;
 use super::baseline::Naive;
 use super::checks::median;
@@ -50,6 +51,8 @@ pub struct MergeReport {
     pub rows: Vec<MergeRow>,
     /// ROC AUC of rank-1 scores, true pairs against negatives.
     pub auc: f64,
+    /// The same over the true pairs without a shape rival.
+    pub auc_decidable: f64,
     pub median_match_s: f64,
     pub mean_match_s: f64,
     pub max_match_s: f64,
@@ -193,6 +196,10 @@ impl Report {
             ("common road turning >= 180°", &|c: &MergeCase| {
                 c.overlap_turning_deg >= 180.0
             }),
+            ("no shape rival", &|c: &MergeCase| !c.shape_rival),
+            ("shape rival (ambiguous by shape)", &|c: &MergeCase| {
+                c.shape_rival
+            }),
             ("B forward", &|c: &MergeCase| !c.reversed),
             ("B reversed", &|c: &MergeCase| c.reversed),
         ] {
@@ -200,6 +207,11 @@ impl Report {
             rows.push(merge_row(name, &g));
         }
         let pos: Vec<f64> = cases.iter().map(|c| c.rank1_score).collect();
+        let decidable: Vec<f64> = cases
+            .iter()
+            .filter(|c| !c.shape_rival)
+            .map(|c| c.rank1_score)
+            .collect();
         let neg: Vec<f64> = negatives.iter().map(|n| n.rank1_score).collect();
         let times: Vec<f64> = cases
             .iter()
@@ -210,6 +222,7 @@ impl Report {
             windows,
             rows,
             auc: roc_auc(&pos, &neg),
+            auc_decidable: roc_auc(&decidable, &neg),
             median_match_s: median(&times),
             mean_match_s: times.iter().sum::<f64>() / times.len().max(1) as f64,
             max_match_s: times.iter().copied().fold(0.0, f64::max),
@@ -337,6 +350,24 @@ impl Report {
             m.cases.len(),
             m.negatives.len(),
             fmt_num(m.auc, 3)
+        );
+        let rivals = m.cases.iter().filter(|c| c.shape_rival).count();
+        let _ = writeln!(
+            s,
+            "Shape rival (`src/eval/ambiguity.rs`): a slide along the common road or a scaling about \
+             one of its ends that fails the test yet lays at least {:.0} % of the road length and of the \
+             turning of B that the truth lays within a band of A ({} times the truth's misfit, {}-{} m). \
+             No method that sees only the two paths \
+             can tell such a case's truth from its rival. {} of {} cases have one; over the other {}, \
+             ROC AUC against the negatives: **{}**.\n",
+            100.0 * RIVAL_COVER_SHARE,
+            BAND_PER_MISFIT,
+            BAND_M.0,
+            BAND_M.1,
+            rivals,
+            m.cases.len(),
+            m.cases.len() - rivals,
+            fmt_num(m.auc_decidable, 3)
         );
         let _ = writeln!(
             s,

@@ -1,0 +1,419 @@
+//! Can shape alone place B? A *shape rival* is a similarity that fails the
+//! merge test yet lays at least as much of B onto A as the true alignment
+//! does. Where one exists, the two paths themselves hold nothing that
+//! prefers the truth: no method that sees only the paths can be sure to
+//! pick it, so the case bounds what any shape method can score.
+//!
+//! The rivals tried are the moves a straight leaves free (maths in A's
+//! frame, `a_T_b*` the best-fit truth, `tol` the test's tolerance):
+//! - slides `p ↦ a_T_b*(p) + t·u` along the principal direction `u` of the
+//!   common road, `|t|` = 1.25, 1.5, 2, 3, 4 or 6 tolerances;
+//! - scalings `p ↦ c + f·(a_T_b*(p) - c)` about either end `c` of the
+//!   common road, `f = 1 ± k·tol/d`, `d` the median distance of the common
+//!   road from `c`, `k` = 1.25, 1.5, 2 or 3 (the median error is then
+//!   about `k·tol`).
+//!
+//! The same moves by 0.25, 0.5 and 0.75 tolerances usually still pass the
+//! test; the truth's support is the most any passing placement tried lays
+//! onto A, so a rival must beat the truth at its best.
+//!
+//! What a placement lays onto A is counted twice, and a rival must match
+//! the truth in both: the road length of B (steps between consecutive
+//! poses, measured under the truth) whose both ends lie within a band of
+//! A's poses, and the turning of B (between chords of about [`KNOT_M`])
+//! at knots within that band; turns are what shape matching sees, so a
+//! rival that slides B's turns off A's has none. The band is twice the
+//! truth's own misfit to A (75th percentile), between 1 and 8 m: a
+//! ground-truth B on its own drive fits A to the centimetre, so a rival
+//! must too, while a monocular B or another lane of the road may stray as
+//! far as the truth does.
+
+use std::collections::HashMap;
+
+use nalgebra::Vector3;
+use serde::Serialize;
+
+use super::checks::{median, Overlap};
+use crate::geometry::Similarity3;
+
+/// The band around A's poses that counts as on A is this many times the
+/// truth's own misfit (the 75th percentile of the distances from B's
+/// common-road poses, placed by the truth, to their nearest pose of A) ...
+pub const BAND_PER_MISFIT: f64 = 2.0;
+/// ... within these bounds (ground-truth metres): at least the spacing of
+/// KITTI's poses, at most the same-road radius.
+pub const BAND_M: (f64, f64) = (1.0, super::merge::SAME_ROAD_M);
+/// A rival must lay at least this share of the truth's road length and of
+/// its turning onto A.
+pub const RIVAL_COVER_SHARE: f64 = 0.99;
+/// Turning is read between knots this far apart along B (m), so that pose
+/// noise adds little.
+const KNOT_M: f64 = 10.0;
+
+/// What one placement of B lays onto A.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Support {
+    /// Road length (m) of B within the band of A.
+    pub length_m: f64,
+    /// Turning (degrees) of B within the band of A.
+    pub turning_deg: f64,
+}
+
+/// The strongest failing placement found for one case.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ShapeRival {
+    /// `"slide"` or `"scale"` (then settled onto A, or not).
+    pub kind: &'static str,
+    /// Its size in tolerances (signed).
+    pub amount: f64,
+    /// What it lays onto A.
+    pub support: Support,
+    /// Its median error (m) on the common road.
+    pub median_error: f64,
+}
+
+/// How well the truth and its best failing rival are supported by shape.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Ambiguity {
+    /// Band (m) around A's poses.
+    pub band_m: f64,
+    /// The most any passing placement tried (the best-fit truth or a small
+    /// move of it) lays onto A, length and turning each at its best.
+    pub truth: Support,
+    /// The failing rival whose weaker share of the truth's support is the
+    /// largest (`None`: every rival tried passed the test, which happens
+    /// only on tiny common roads).
+    pub best_rival: Option<ShapeRival>,
+}
+
+impl Ambiguity {
+    /// The smaller of a rival's shares of the truth's length and turning.
+    fn share(&self, r: &Support) -> f64 {
+        let ratio = |x: f64, of: f64| if of > 0.0 { x / of } else { 1.0 };
+        ratio(r.length_m, self.truth.length_m).min(ratio(r.turning_deg, self.truth.turning_deg))
+    }
+
+    /// A failing rival lays at least [`RIVAL_COVER_SHARE`] of the truth's
+    /// road length and turning onto A.
+    pub fn has_rival(&self) -> bool {
+        self.best_rival
+            .is_some_and(|r| self.share(&r.support) >= RIVAL_COVER_SHARE)
+    }
+}
+
+/// Rounds of nearest-point refitting that settle a moved placement.
+const SETTLE_ROUNDS: usize = 4;
+/// Every this many poses of B take part in settling.
+const SETTLE_STRIDE: usize = 4;
+
+/// A slide by `t` in A's frame.
+fn slide(t: Vector3<f64>) -> Similarity3 {
+    Similarity3 {
+        translation: t,
+        ..Similarity3::identity()
+    }
+}
+
+/// A scaling by `f` about `c` in A's frame.
+fn scaling(c: Vector3<f64>, f: f64) -> Similarity3 {
+    Similarity3 {
+        scale: f,
+        translation: c - f * c,
+        ..Similarity3::identity()
+    }
+}
+
+/// Settles a placement `d` of B (already in A's frame) onto A: each round
+/// pulls B's poses within two bands of A onto their nearest pose of A and
+/// refits the rotation and translation at `d`'s scale. On a straight this fixes the sideways offset and
+/// the heading and leaves the slide along the road; near a turn it pulls a
+/// moved placement back towards the truth.
+fn settle(grid: &PointGrid, b_in_a: &[Vector3<f64>], mut d: Similarity3) -> Similarity3 {
+    for _ in 0..SETTLE_ROUNDS {
+        let (src, dst): (Vec<_>, Vec<_>) = b_in_a
+            .iter()
+            .step_by(SETTLE_STRIDE)
+            .filter_map(|p| grid.nearest(&d.apply(p)).map(|a| (*p, a)))
+            .unzip();
+        let Some(fit) = Similarity3::fit(&src, &dst) else {
+            break;
+        };
+        // The move's scale is kept: a free scale would shrink B onto any
+        // dense part of A.
+        let mean = |v: &[Vector3<f64>]| v.iter().sum::<Vector3<f64>>() / v.len() as f64;
+        d = Similarity3 {
+            translation: mean(&dst) - d.scale * (fit.rotation * mean(&src)),
+            rotation: fit.rotation,
+            scale: d.scale,
+        };
+    }
+    d
+}
+
+/// Looks for a shape rival of `a_T_b` (the best-fit truth) for B's poses
+/// `b_input` over A's true positions `a_true`; `b_true` are B's true
+/// positions (A's frame) and `truth` the common road with its tolerance
+/// `tolerance`.
+#[allow(non_snake_case)]
+pub fn shape_rival(
+    a_true: &[Vector3<f64>],
+    b_input: &[Vector3<f64>],
+    b_true: &[Vector3<f64>],
+    truth: &Overlap,
+    a_T_b: &Similarity3,
+    tolerance: f64,
+) -> Ambiguity {
+    let b_in_a: Vec<Vector3<f64>> = b_input.iter().map(|p| a_T_b.apply(p)).collect();
+    let reach = PointGrid::new(a_true, BAND_M.1);
+    let misfit: Vec<f64> = truth
+        .b
+        .iter()
+        .map(|&k| {
+            reach
+                .nearest(&b_in_a[k])
+                .map_or(BAND_M.1, |a| (a - b_in_a[k]).norm())
+        })
+        .collect();
+    let band_m = (BAND_PER_MISFIT * quantile(&misfit, 0.75)).clamp(BAND_M.0, BAND_M.1);
+    let grid = PointGrid::new(a_true, band_m);
+    let wide = PointGrid::new(a_true, 2.0 * band_m);
+    // Steps and turns are measured under the truth, so a scaled rival gains
+    // no length and a move keeps every turn's size.
+    let steps: Vec<f64> = b_in_a.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
+    let knots = turning_knots(&b_in_a);
+    let support = |m: &Similarity3| -> Support {
+        let on: Vec<bool> = b_in_a.iter().map(|p| grid.near(&m.apply(p))).collect();
+        Support {
+            length_m: steps
+                .iter()
+                .zip(on.windows(2))
+                .filter(|(_, o)| o[0] && o[1])
+                .map(|(d, _)| d)
+                .sum(),
+            turning_deg: knots
+                .iter()
+                .filter(|(p, _)| grid.near(&m.apply(p)))
+                .map(|(_, t)| t)
+                .sum(),
+        }
+    };
+    let error = |m: &Similarity3| -> f64 {
+        let e: Vec<f64> = truth
+            .b
+            .iter()
+            .map(|&k| (m.apply(&b_in_a[k]) - b_true[k]).norm())
+            .collect();
+        median(&e)
+    };
+    let mut moves: Vec<(&'static str, f64, Similarity3)> =
+        vec![("none", 0.0, Similarity3::identity())];
+    let common: Vec<Vector3<f64>> = truth.b.iter().map(|&k| b_true[k]).collect();
+    if let Some(u) = principal_direction(&common) {
+        for k in [0.25, 0.5, 0.75, 1.25, 1.5, 2.0, 3.0, 4.0, 6.0] {
+            for sign in [-1.0, 1.0] {
+                moves.push(("slide", sign * k, slide(u * (sign * k * tolerance))));
+            }
+        }
+    }
+    for c in [common[0], common[common.len() - 1]] {
+        let d = median(&common.iter().map(|p| (p - c).norm()).collect::<Vec<_>>());
+        for k in [0.25, 0.5, 0.75, 1.25, 1.5, 2.0, 3.0] {
+            for sign in [-1.0, 1.0] {
+                let f = 1.0 + sign * k * tolerance / d;
+                if d > 0.0 && f > 0.0 {
+                    moves.push(("scale", sign * k, scaling(c, f)));
+                }
+            }
+        }
+    }
+    let mut amb = Ambiguity {
+        band_m,
+        truth: Support::default(),
+        best_rival: None,
+    };
+    let mut rivals = Vec::new();
+    let settled: Vec<_> = moves
+        .iter()
+        .map(|(kind, amount, m)| (*kind, *amount, settle(&wide, &b_in_a, *m)))
+        .collect();
+    for (kind, amount, m) in moves.into_iter().chain(settled) {
+        let (median_error, s) = (error(&m), support(&m));
+        if median_error <= tolerance {
+            amb.truth.length_m = amb.truth.length_m.max(s.length_m);
+            amb.truth.turning_deg = amb.truth.turning_deg.max(s.turning_deg);
+        } else {
+            rivals.push(ShapeRival {
+                kind,
+                amount,
+                support: s,
+                median_error,
+            });
+        }
+    }
+    amb.best_rival = rivals
+        .into_iter()
+        .max_by(|x, y| amb.share(&x.support).total_cmp(&amb.share(&y.support)));
+    amb
+}
+
+/// The `q` quantile of `values` (nearest rank; 0 when empty).
+fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.get(((v.len() as f64 - 1.0) * q).round() as usize)
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// Knots of `path` about [`KNOT_M`] apart, each with the turning (degrees)
+/// between the chords before and after it.
+fn turning_knots(path: &[Vector3<f64>]) -> Vec<(Vector3<f64>, f64)> {
+    let mut knots = vec![path[0]];
+    for p in path {
+        if (p - knots[knots.len() - 1]).norm() >= KNOT_M {
+            knots.push(*p);
+        }
+    }
+    knots
+        .windows(3)
+        .map(|w| (w[1], (w[1] - w[0]).angle(&(w[2] - w[1])).to_degrees()))
+        .collect()
+}
+
+/// Unit direction of largest spread of `points` (`None` for fewer than 2).
+fn principal_direction(points: &[Vector3<f64>]) -> Option<Vector3<f64>> {
+    if points.len() < 2 {
+        return None;
+    }
+    let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    let scatter = points
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<nalgebra::Matrix3<f64>>();
+    let eig = scatter.symmetric_eigen();
+    let i = eig.eigenvalues.imax();
+    Some(eig.eigenvectors.column(i).into_owned())
+}
+
+/// A hash grid over points: is there one within `radius` of a query?
+struct PointGrid {
+    radius: f64,
+    cells: HashMap<[i64; 3], Vec<Vector3<f64>>>,
+}
+
+impl PointGrid {
+    fn new(points: &[Vector3<f64>], radius: f64) -> Self {
+        let mut cells: HashMap<[i64; 3], Vec<Vector3<f64>>> = HashMap::new();
+        for p in points {
+            cells.entry(Self::key(p, radius)).or_default().push(*p);
+        }
+        PointGrid { radius, cells }
+    }
+
+    fn key(p: &Vector3<f64>, radius: f64) -> [i64; 3] {
+        [
+            (p.x / radius).floor() as i64,
+            (p.y / radius).floor() as i64,
+            (p.z / radius).floor() as i64,
+        ]
+    }
+
+    /// The nearest point within `radius` of `p`.
+    fn nearest(&self, p: &Vector3<f64>) -> Option<Vector3<f64>> {
+        let [x, y, z] = Self::key(p, self.radius);
+        let mut best: Option<(f64, Vector3<f64>)> = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    for q in self
+                        .cells
+                        .get(&[x + dx, y + dy, z + dz])
+                        .into_iter()
+                        .flatten()
+                    {
+                        let d2 = (q - p).norm_squared();
+                        if d2 <= self.radius * self.radius && best.is_none_or(|(b, _)| d2 < b) {
+                            best = Some((d2, *q));
+                        }
+                    }
+                }
+            }
+        }
+        best.map(|(_, q)| q)
+    }
+
+    fn near(&self, p: &Vector3<f64>) -> bool {
+        let [x, y, z] = Self::key(p, self.radius);
+        let r2 = self.radius * self.radius;
+        (-1..=1).any(|dx| {
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dz| {
+                    self.cells
+                        .get(&[x + dx, y + dy, z + dz])
+                        .is_some_and(|v| v.iter().any(|q| (q - p).norm_squared() <= r2))
+                })
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::checks::overlap;
+
+    /// B is A's road at scale 0.1, shifted: the truth maps it back exactly.
+    fn case(
+        a: &[Vector3<f64>],
+        b_true: Vec<Vector3<f64>>,
+    ) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Overlap, Similarity3) {
+        let b_input: Vec<_> = b_true
+            .iter()
+            .map(|p| 0.1 * p + Vector3::new(3.0, -2.0, 1.0))
+            .collect();
+        let o = overlap(a, &b_true, 8.0);
+        let src: Vec<_> = o.b.iter().map(|&k| b_input[k]).collect();
+        let dst: Vec<_> = o.b.iter().map(|&k| b_true[k]).collect();
+        let fit = Similarity3::fit(&src, &dst).unwrap();
+        (b_input, b_true, o, fit)
+    }
+
+    #[test]
+    fn a_straight_common_road_has_a_rival() {
+        // A: 600 m of straight; B: 300 m of it, then a turn A never makes.
+        let a: Vec<_> = (0..600).map(|i| Vector3::new(i as f64, 0.0, 0.0)).collect();
+        let b: Vec<_> = (0..300)
+            .map(|i| Vector3::new(150.0 + i as f64, 0.0, 0.0))
+            .chain((1..100).map(|i| Vector3::new(449.0, 0.0, i as f64)))
+            .collect();
+        let (b_input, b_true, o, fit) = case(&a, b);
+        let tol = (0.02 * o.length).max(3.0);
+        let amb = shape_rival(&a, &b_input, &b_true, &o, &fit, tol);
+        assert!(amb.has_rival(), "{amb:?}");
+        assert!(amb.best_rival.unwrap().median_error > tol);
+    }
+
+    #[test]
+    fn a_common_road_with_its_turns_has_none() {
+        // A: legs of 100, 60, 140 and 80 m joined by right-angle turns; B:
+        // from the middle of the first leg to the middle of the last.
+        let legs = [
+            (100, Vector3::x()),
+            (60, Vector3::z()),
+            (140, -Vector3::x()),
+        ];
+        let mut a = vec![Vector3::zeros()];
+        for (n, dir) in legs.into_iter().chain([(80, -Vector3::z())]) {
+            for _ in 0..n {
+                a.push(a[a.len() - 1] + dir);
+            }
+        }
+        let b: Vec<_> = a[50..=340].to_vec();
+        let (b_input, b_true, o, fit) = case(&a, b);
+        let tol = (0.02 * o.length).max(3.0);
+        let amb = shape_rival(&a, &b_input, &b_true, &o, &fit, tol);
+        assert!(!amb.has_rival(), "{amb:?}");
+        assert!((amb.truth.length_m - 290.0).abs() < 1e-6, "{amb:?}");
+        assert!((amb.truth.turning_deg - 270.0).abs() < 10.0, "{amb:?}");
+    }
+}
