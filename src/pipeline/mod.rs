@@ -95,24 +95,28 @@ fn match_thinned(
     };
     let a_denser = ratio >= 1.0;
     let dense = if a_denser { a } else { b };
-    let Ok(thin) = PreparedPath::new(&resolution::thinned(dense, k), config) else {
-        return Vec::new();
-    };
-    let mut coarse = match a_denser {
-        true => match_prepared(&thin, pb, config),
-        false => match_prepared(pa, &thin, config),
-    };
-    let at = |i: usize| resolution::unthinned(i, k, dense.len());
-    for h in &mut coarse {
-        if a_denser {
-            h.a_range = h.a_range.map(at);
-            h.correspondences.iter_mut().for_each(|c| c.0 = at(c.0));
-        } else {
-            h.b_range = h.b_range.map(at);
-            h.correspondences.iter_mut().for_each(|c| c.1 = at(c.1));
+    let mut all = Vec::new();
+    for k in resolution::thinnings_around(k) {
+        let Ok(thin) = PreparedPath::new(&resolution::thinned(dense, k), config) else {
+            continue;
+        };
+        let mut coarse = match a_denser {
+            true => match_prepared(&thin, pb, config),
+            false => match_prepared(pa, &thin, config),
+        };
+        let at = |i: usize| resolution::unthinned(i, k, dense.len());
+        for h in &mut coarse {
+            if a_denser {
+                h.a_range = h.a_range.map(at);
+                h.correspondences.iter_mut().for_each(|c| c.0 = at(c.0));
+            } else {
+                h.b_range = h.b_range.map(at);
+                h.correspondences.iter_mut().for_each(|c| c.1 = at(c.1));
+            }
         }
+        all.extend(coarse);
     }
-    coarse
+    all
 }
 
 /// The hypotheses of prepared paths at their own rates, ranked, their

@@ -70,6 +70,25 @@ pub fn thinning(ratio: f64) -> Option<usize> {
         .then(|| ((READS_LOW * r).round() as usize).min(MAX_THINNING))
 }
 
+/// The thinnings tried around an estimate `k`: the estimate reads the
+/// ratio from a few corners, so on a short path it can be a fifth off, and
+/// a sparse path matches well only near its own rate.
+pub fn thinnings_around(k: usize) -> Vec<usize> {
+    let mut ks: Vec<usize> = [
+        k as f64 / THINNING_SPREAD,
+        k as f64,
+        k as f64 * THINNING_SPREAD,
+    ]
+    .iter()
+    .map(|x| (x.round() as usize).clamp(2, MAX_THINNING))
+    .collect();
+    ks.dedup();
+    ks
+}
+
+/// Ratio between the thinnings tried ([`thinnings_around`]).
+const THINNING_SPREAD: f64 = 1.25;
+
 /// Every `k`-th pose of `t`, the last one included.
 pub fn thinned(t: &Trajectory, k: usize) -> Trajectory {
     let n = t.poses.len();
