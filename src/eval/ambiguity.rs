@@ -13,16 +13,20 @@
 //!   road from `c`, `k` = 1.25, 1.5, 2 or 3 (the median error is then
 //!   about `k·tol`).
 //!
-//! The same moves by 0.25, 0.5 and 0.75 tolerances usually still pass the
+//! Each move is tried as it is and settled onto A ([`settle`]). Rivals of
+//! symmetric and repeated shapes (a racetrack's other end, a look-alike
+//! block of a grid) are not among them, so the count of ambiguous cases is
+//! a lower bound; it does not depend on any matcher's answers. The same
+//! moves by 0.25, 0.5 and 0.75 tolerances usually still pass the
 //! test; the truth's support is the most any passing placement tried lays
 //! onto A, so a rival must beat the truth at its best.
 //!
 //! What a placement lays onto A is counted twice, and a rival must match
 //! the truth in both: the road length of B (steps between consecutive
 //! poses, measured under the truth) whose both ends lie within a band of
-//! A's poses, and the turning of B (between chords of about [`KNOT_M`])
-//! at knots within that band; turns are what shape matching sees, so a
-//! rival that slides B's turns off A's has none. The band is twice the
+//! A's poses, and the turning of B between chords of about [`KNOT_M`] (in
+//! A's frame) whose three knots lie within that band; turns are what shape
+//! matching sees, so a rival that slides B's turns off A's has none. The band is twice the
 //! truth's own misfit to A (75th percentile), between 1 and 8 m: a
 //! ground-truth B on its own drive fits A to the centimetre, so a rival
 //! must too, while a monocular B or another lane of the road may stray as
@@ -177,24 +181,28 @@ pub fn shape_rival(
     let band_m = (BAND_PER_MISFIT * quantile(&misfit, 0.75)).clamp(BAND_M.0, BAND_M.1);
     let grid = PointGrid::new(a_true, band_m);
     let wide = PointGrid::new(a_true, 2.0 * band_m);
-    // Steps and turns are measured under the truth, so a scaled rival gains
-    // no length and a move keeps every turn's size.
+    // Steps are measured under the truth, so a scaled rival neither gains
+    // nor loses road. Turns are read between knots KNOT_M apart in A's
+    // frame, and count only when the knots on both sides lie on A too.
     let steps: Vec<f64> = b_in_a.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
-    let knots = turning_knots(&b_in_a);
     let support = |m: &Similarity3| -> Support {
-        let on: Vec<bool> = b_in_a.iter().map(|p| grid.near(&m.apply(p))).collect();
+        let moved: Vec<Vector3<f64>> = b_in_a.iter().map(|p| m.apply(p)).collect();
+        let on: Vec<bool> = moved.iter().map(|p| grid.near(p)).collect();
+        let length_m = steps
+            .iter()
+            .zip(on.windows(2))
+            .filter(|(_, o)| o[0] && o[1])
+            .map(|(d, _)| d)
+            .sum();
+        let knots = knots(&moved);
+        let turning_deg = knots
+            .windows(3)
+            .filter(|w| w.iter().all(|p| grid.near(p)))
+            .map(|w| (w[1] - w[0]).angle(&(w[2] - w[1])).to_degrees())
+            .sum();
         Support {
-            length_m: steps
-                .iter()
-                .zip(on.windows(2))
-                .filter(|(_, o)| o[0] && o[1])
-                .map(|(d, _)| d)
-                .sum(),
-            turning_deg: knots
-                .iter()
-                .filter(|(p, _)| grid.near(&m.apply(p)))
-                .map(|(_, t)| t)
-                .sum(),
+            length_m,
+            turning_deg,
         }
     };
     let error = |m: &Similarity3| -> f64 {
@@ -265,9 +273,8 @@ fn quantile(values: &[f64], q: f64) -> f64 {
         .unwrap_or(0.0)
 }
 
-/// Knots of `path` about [`KNOT_M`] apart, each with the turning (degrees)
-/// between the chords before and after it.
-fn turning_knots(path: &[Vector3<f64>]) -> Vec<(Vector3<f64>, f64)> {
+/// Points of `path` about [`KNOT_M`] apart, its first included.
+fn knots(path: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
     let mut knots = vec![path[0]];
     for p in path {
         if (p - knots[knots.len() - 1]).norm() >= KNOT_M {
@@ -275,9 +282,6 @@ fn turning_knots(path: &[Vector3<f64>]) -> Vec<(Vector3<f64>, f64)> {
         }
     }
     knots
-        .windows(3)
-        .map(|w| (w[1], (w[1] - w[0]).angle(&(w[2] - w[1])).to_degrees()))
-        .collect()
 }
 
 /// Unit direction of largest spread of `points` (`None` for fewer than 2).

@@ -255,14 +255,14 @@ pub fn run_case(
         let v = merge_verdict_of(|p| o.apply(p), a_all, b_all, &b.input, &b.truth, &truth);
         (o, v)
     });
-    let ambiguity = oracle
-        .as_ref()
-        .map(|(o, v)| shape_rival(&a_cut.truth, &b.input, &b.truth, &truth, o, v.tolerance));
     // A case that no similarity can pass is not run (the caller skips it).
     let (hyps, seconds, error) = match oracle.as_ref().is_some_and(|(_, v)| v.correct) {
         true => run_match(&a_traj, &b_traj, top_k),
         false => (Vec::new(), 0.0, None),
     };
+    let ambiguity = oracle
+        .as_ref()
+        .map(|(o, v)| shape_rival(&a_cut.truth, &b.input, &b.truth, &truth, o, v.tolerance));
     let hypotheses = hyps
         .into_iter()
         .map(|h| {
