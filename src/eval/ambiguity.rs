@@ -13,7 +13,7 @@
 //!   road from `c`, `k` = 1.25, 1.5, 2 or 3 (the median error is then
 //!   about `k·tol`).
 //!
-//! Each move is tried as it is and settled onto A ([`settle`]). Rivals of
+//! Each move is tried as it is and settled onto A (rigid nearest-pose refits at the move's scale). Rivals of
 //! symmetric and repeated shapes (a racetrack's other end, a look-alike
 //! block of a grid) are not among them, so the count of ambiguous cases is
 //! a lower bound; it does not depend on any matcher's answers. The same
@@ -24,7 +24,7 @@
 //! What a placement lays onto A is counted twice, and a rival must match
 //! the truth in both: the road length of B (steps between consecutive
 //! poses, measured under the truth) whose both ends lie within a band of
-//! A's poses, and the turning of B between chords of about [`KNOT_M`] (in
+//! A's poses, and the turning of B between chords of about 10 m (in
 //! A's frame) whose three knots lie within that band; turns are what shape
 //! matching sees, so a rival that slides B's turns off A's has none. The band is twice the
 //! truth's own misfit to A (75th percentile), between 1 and 8 m: a
