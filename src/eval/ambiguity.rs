@@ -50,8 +50,8 @@ pub const BAND_M: (f64, f64) = (1.0, super::merge::SAME_ROAD_M);
 /// A rival must lay at least this share of the truth's road length and of
 /// its turning onto A.
 pub const RIVAL_COVER_SHARE: f64 = 0.99;
-/// Turning is read between knots this far apart along B (m), so that pose
-/// noise adds little.
+/// Turning is read between knots of the placed B this far apart (m, in
+/// A's frame), so that pose noise adds little.
 const KNOT_M: f64 = 10.0;
 
 /// What one placement of B lays onto A.
@@ -66,7 +66,7 @@ pub struct Support {
 /// The strongest failing placement found for one case.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ShapeRival {
-    /// `"slide"` or `"scale"` (then settled onto A, or not).
+    /// `"slide"` or `"scale"`, as moved or settled onto A.
     pub kind: &'static str,
     /// Its size in tolerances (signed).
     pub amount: f64,
