@@ -13,21 +13,21 @@
 //!   road from `c`, `k` = 1.25, 1.5, 2 or 3 (the median error is then
 //!   about `k·tol`).
 //!
-//! Each move is tried as it is and settled onto A (rigid nearest-pose refits at the move's scale). Rivals of
-//! symmetric and repeated shapes (a racetrack's other end, a look-alike
-//! block of a grid) are not among them, so the count of ambiguous cases is
-//! a lower bound; it does not depend on any matcher's answers. The same
-//! moves by 0.25, 0.5 and 0.75 tolerances usually still pass the
-//! test; the truth's support is the most any passing placement tried lays
-//! onto A, so a rival must beat the truth at its best.
+//! Each move is tried as it is and settled onto A (rigid nearest-pose
+//! refits at the move's scale). Rivals of symmetric and repeated shapes (a
+//! racetrack's other end, a look-alike block of a grid) are not among them,
+//! so the count of ambiguous cases is a lower bound; it does not depend on
+//! any matcher's answers. The same moves by 0.25, 0.5 and 0.75 tolerances
+//! usually still pass the test; the truth's support is the most any passing
+//! placement tried lays onto A, so a rival must beat the truth at its best.
 //!
 //! What a placement lays onto A is counted twice, and a rival must match
 //! the truth in both: the road length of B (steps between consecutive
 //! poses, measured under the truth) whose both ends lie within a band of
 //! A's poses, and the turning of B between chords of about 10 m (in
 //! A's frame) whose three knots lie within that band; turns are what shape
-//! matching sees, so a rival that slides B's turns off A's has none. The band is twice the
-//! truth's own misfit to A (75th percentile), between 1 and 8 m: a
+//! matching sees, so a rival that slides B's turns off A's has none. The
+//! band is twice the truth's own misfit to A (75th percentile), between 1 and 8 m: a
 //! ground-truth B on its own drive fits A to the centimetre, so a rival
 //! must too, while a monocular B or another lane of the road may stray as
 //! far as the truth does.
@@ -38,7 +38,7 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::checks::{median, Overlap};
-use crate::geometry::Similarity3;
+use crate::geometry::{Plane, Similarity3};
 
 /// The band around A's poses that counts as on A is this many times the
 /// truth's own misfit (the 75th percentile of the distances from B's
@@ -129,8 +129,9 @@ fn scaling(c: Vector3<f64>, f: f64) -> Similarity3 {
 
 /// Settles a placement `d` of B (already in A's frame) onto A: each round
 /// pulls B's poses within two bands of A onto their nearest pose of A and
-/// refits the rotation and translation at `d`'s scale. On a straight this fixes the sideways offset and
-/// the heading and leaves the slide along the road; near a turn it pulls a
+/// refits the rotation and translation at `d`'s scale. On a straight this
+/// fixes the sideways offset and the heading and leaves the slide along
+/// the road; near a turn it pulls a
 /// moved placement back towards the truth.
 fn settle(grid: &PointGrid, b_in_a: &[Vector3<f64>], mut d: Similarity3) -> Similarity3 {
     for _ in 0..SETTLE_ROUNDS {
@@ -216,11 +217,11 @@ pub fn shape_rival(
     let mut moves: Vec<(&'static str, f64, Similarity3)> =
         vec![("none", 0.0, Similarity3::identity())];
     let common: Vec<Vector3<f64>> = truth.b.iter().map(|&k| b_true[k]).collect();
-    if let Some(u) = principal_direction(&common) {
-        for k in [0.25, 0.5, 0.75, 1.25, 1.5, 2.0, 3.0, 4.0, 6.0] {
-            for sign in [-1.0, 1.0] {
-                moves.push(("slide", sign * k, slide(u * (sign * k * tolerance))));
-            }
+    // The plane's first axis is the direction of largest spread.
+    let u = Plane::fit(&common).world_R_plane.column(0).into_owned();
+    for k in [0.25, 0.5, 0.75, 1.25, 1.5, 2.0, 3.0, 4.0, 6.0] {
+        for sign in [-1.0, 1.0] {
+            moves.push(("slide", sign * k, slide(u * (sign * k * tolerance))));
         }
     }
     for c in [common[0], common[common.len() - 1]] {
@@ -284,21 +285,6 @@ fn knots(path: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
     knots
 }
 
-/// Unit direction of largest spread of `points` (`None` for fewer than 2).
-fn principal_direction(points: &[Vector3<f64>]) -> Option<Vector3<f64>> {
-    if points.len() < 2 {
-        return None;
-    }
-    let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
-    let scatter = points
-        .iter()
-        .map(|p| (p - mean) * (p - mean).transpose())
-        .sum::<nalgebra::Matrix3<f64>>();
-    let eig = scatter.symmetric_eigen();
-    let i = eig.eigenvalues.imax();
-    Some(eig.eigenvectors.column(i).into_owned())
-}
-
 /// A hash grid over points: is there one within `radius` of a query?
 struct PointGrid {
     radius: f64,
@@ -347,17 +333,7 @@ impl PointGrid {
     }
 
     fn near(&self, p: &Vector3<f64>) -> bool {
-        let [x, y, z] = Self::key(p, self.radius);
-        let r2 = self.radius * self.radius;
-        (-1..=1).any(|dx| {
-            (-1..=1).any(|dy| {
-                (-1..=1).any(|dz| {
-                    self.cells
-                        .get(&[x + dx, y + dy, z + dz])
-                        .is_some_and(|v| v.iter().any(|q| (q - p).norm_squared() <= r2))
-                })
-            })
-        })
+        self.nearest(p).is_some()
     }
 }
 
