@@ -64,6 +64,9 @@ fn main() {
     println!("seq  poses events detected  rate  delay_med_m delay_p90_m  cands correct share  push_p50_us push_p99_us  wall_s");
     let (mut ev_all, mut det_all, mut c_all, mut ok_all) = (0, 0, 0, 0);
     let mut delays_all = Vec::new();
+    // (shape rival under the drift prior, if decided; detected) of every
+    // event.
+    let mut certified: Vec<(Option<bool>, bool)> = Vec::new();
     for seq in &seqs {
         let gt = read_trajectory(
             Path::new(&format!("{}/kitti_gt/{seq}.txt", data_dir())),
@@ -101,6 +104,7 @@ fn main() {
         if let Ok(v) = std::env::var("DRIFT_PROBE") {
             config.drift_probe = v == "1";
         }
+        let drift = config.pipeline.drift_prior.unwrap_or_default();
         let mut det = Detector::new(config, Overflow::Block);
         let mut cands: Vec<CandidateEvent> = Vec::new();
         let mut lat = Vec::with_capacity(input.len());
@@ -125,6 +129,7 @@ fn main() {
         let correct: Vec<bool> = cands.iter().map(|c| is_correct(c, &g)).collect();
         let mut delays = Vec::new();
         let mut detected = 0;
+        let mut hits = Vec::new();
         for &(e0, e1) in &events {
             let end_arc = arc[e1] + 40.0;
             let first = cands
@@ -138,9 +143,29 @@ fn main() {
                 })
                 .map(|(c, _)| c.at_pose)
                 .min();
+            hits.push(first.is_some());
             if let Some(at) = first {
                 detected += 1;
                 delays.push((arc[at.min(e1)] - arc[e0]).max(0.0));
+            }
+        }
+        // Which events the map's own poses could decide by the deadline.
+        for (&(e0, e1), &hit) in events.iter().zip(&hits) {
+            let deadline = arc.partition_point(|&s| s <= arc[e1] + 40.0);
+            let amb = turnprint::eval::ambiguity::revisit_rival(
+                &g,
+                &input,
+                [e0, e1],
+                deadline,
+                APPROACH_M,
+                300,
+                8.0,
+                &drift,
+            );
+            let rival = amb.map(|a| a.has_rival());
+            certified.push((rival, hit));
+            if show_events {
+                eprintln!("certificate {seq} [{e0}, {e1}] detected {hit} rival {rival:?} {amb:?}");
             }
         }
         let ok = correct.iter().filter(|&&b| b).count();
@@ -202,7 +227,19 @@ fn main() {
         q(&delays_all, 0.9),
         ok_all as f64 / c_all.max(1) as f64
     );
+    let count = |rival: Option<bool>| {
+        let of: Vec<bool> = certified.iter().filter(|c| c.0 == rival).map(|c| c.1).collect();
+        (of.len(), of.iter().filter(|&&d| d).count())
+    };
+    let (rival, undecided, none) = (count(Some(true)), count(None), count(Some(false)));
+    println!(
+        "certificate  events with a shape rival under the drift prior {} (detected {}); without {} (detected {}); too long for one similarity {} (detected {})",
+        rival.0, rival.1, none.0, none.1, undecided.0, undecided.1
+    );
 }
+
+/// Road before an event that its certificate counts as seen (m).
+const APPROACH_M: f64 = 100.0;
 
 fn arc_length(g: &[Vector3<f64>]) -> Vec<f64> {
     let mut arc = vec![0.0; g.len()];

@@ -37,8 +37,10 @@ use std::collections::HashMap;
 use nalgebra::Vector3;
 use serde::Serialize;
 
-use super::checks::{median, Overlap};
-use crate::geometry::{Plane, Similarity3};
+use super::checks::{median, overlap, Overlap};
+use super::revisits::arc_lengths;
+use crate::geometry::{Plane, Similarity2, Similarity3};
+use crate::score::DriftPrior;
 
 /// The band around A's poses that counts as on A is this many times the
 /// truth's own misfit (the 75th percentile of the distances from B's
@@ -74,6 +76,8 @@ pub struct ShapeRival {
     pub support: Support,
     /// Its median error (m) on the common road.
     pub median_error: f64,
+    /// How plausible the placement is a priori (1 with no prior).
+    pub prior: f64,
 }
 
 /// How well the truth and its best failing rival are supported by shape.
@@ -84,6 +88,9 @@ pub struct Ambiguity {
     /// The most any passing placement tried (the best-fit truth or a small
     /// move of it) lays onto A, length and turning each at its best.
     pub truth: Support,
+    /// The highest prior plausibility of a passing placement (1 with no
+    /// prior).
+    pub truth_prior: f64,
     /// The failing rival whose weaker share of the truth's support is the
     /// largest (`None`: every rival tried passed the test, which happens
     /// only on tiny common roads).
@@ -98,10 +105,11 @@ impl Ambiguity {
     }
 
     /// A failing rival lays at least [`RIVAL_COVER_SHARE`] of the truth's
-    /// road length and turning onto A.
+    /// road length and turning onto A, and is a priori as plausible.
     pub fn has_rival(&self) -> bool {
-        self.best_rival
-            .is_some_and(|r| self.share(&r.support) >= RIVAL_COVER_SHARE)
+        self.best_rival.is_some_and(|r| {
+            self.share(&r.support) >= RIVAL_COVER_SHARE && r.prior >= self.truth_prior
+        })
     }
 }
 
@@ -167,6 +175,23 @@ pub fn shape_rival(
     truth: &Overlap,
     a_T_b: &Similarity3,
     tolerance: f64,
+) -> Ambiguity {
+    shape_rival_under(a_true, b_input, b_true, truth, a_T_b, tolerance, &|_| 1.0)
+}
+
+/// As [`shape_rival`], where `prior` says how plausible a placement of B
+/// in A's frame is before any shape is seen (the drift prior of one map's
+/// revisit): a rival must then also be at least as plausible as the most
+/// plausible passing placement, or knowing where B should be would decide.
+#[allow(non_snake_case)]
+pub fn shape_rival_under(
+    a_true: &[Vector3<f64>],
+    b_input: &[Vector3<f64>],
+    b_true: &[Vector3<f64>],
+    truth: &Overlap,
+    a_T_b: &Similarity3,
+    tolerance: f64,
+    prior: &dyn Fn(&Similarity3) -> f64,
 ) -> Ambiguity {
     let b_in_a: Vec<Vector3<f64>> = b_input.iter().map(|p| a_T_b.apply(p)).collect();
     let reach = PointGrid::new(a_true, BAND_M.1);
@@ -238,6 +263,7 @@ pub fn shape_rival(
     let mut amb = Ambiguity {
         band_m,
         truth: Support::default(),
+        truth_prior: 0.0,
         best_rival: None,
     };
     let mut rivals = Vec::new();
@@ -247,22 +273,134 @@ pub fn shape_rival(
         .collect();
     for (kind, amount, m) in moves.into_iter().chain(settled) {
         let (median_error, s) = (error(&m), support(&m));
+        let prior = prior(&m.compose(a_T_b));
         if median_error <= tolerance {
             amb.truth.length_m = amb.truth.length_m.max(s.length_m);
             amb.truth.turning_deg = amb.truth.turning_deg.max(s.turning_deg);
+            amb.truth_prior = amb.truth_prior.max(prior);
         } else {
             rivals.push(ShapeRival {
                 kind,
                 amount,
                 support: s,
                 median_error,
+                prior,
             });
         }
     }
-    amb.best_rival = rivals
-        .into_iter()
-        .max_by(|x, y| amb.share(&x.support).total_cmp(&amb.share(&y.support)));
+    // The best rival as plausible as the truth; failing that, the best.
+    let best = |plausible: bool| {
+        rivals
+            .iter()
+            .filter(|r| !plausible || r.prior >= amb.truth_prior)
+            .max_by(|x, y| amb.share(&x.support).total_cmp(&amb.share(&y.support)))
+            .copied()
+    };
+    amb.best_rival = best(true).or_else(|| best(false));
     amb
+}
+
+/// The drift-aware certificate of one revisit event of a single map: can
+/// anything that sees the map's own poses up to `deadline` (inclusive)
+/// place the later pass `event` on its earlier pass?
+///
+/// B is the later pass with `approach` of road before it (ground-truth
+/// units) up to `deadline`; A the map's poses at least `min_gap` poses
+/// before the event. Both are the map's own positions `input`; `truth`
+/// are the ground-truth positions (same indices). The common road is B's
+/// poses within `radius` of A (ground truth); each is truly at its
+/// nearest pose of A, so the best-fit truth is the similarity taking B's
+/// common poses onto those of A, in the map's frame. A placement `P` is
+/// weighed a priori by the drift prior of a revisit,
+/// `drift.factor(angle(P), scale(P), median |P(p) - p|, length, distance)`
+/// (offsets, lengths and distances along the map's own path), so in a
+/// consistent map, where the truth is the identity, a slid copy is less
+/// plausible and position decides; under drift it may not be. `None` when
+/// the event has no earlier pass in A, too few common poses to fit, or
+/// is too long for one similarity of the drifting map to place within
+/// the loop test's radius.
+#[allow(clippy::too_many_arguments)]
+pub fn revisit_rival(
+    truth: &[Vector3<f64>],
+    input: &[Vector3<f64>],
+    event: [usize; 2],
+    deadline: usize,
+    approach: f64,
+    min_gap: usize,
+    radius: f64,
+    drift: &DriftPrior,
+) -> Option<Ambiguity> {
+    let a_end = event[0].checked_sub(min_gap)?;
+    let deadline = deadline.min(truth.len() - 1).min(input.len() - 1);
+    let arc = arc_lengths(truth);
+    // The map in ground-truth units (a monocular map has its own), so that
+    // the band and the knots mean the same on every input.
+    let arc_in = arc_lengths(input);
+    let to_m = arc[arc.len() - 1] / arc_in[arc_in.len() - 1].max(f64::MIN_POSITIVE);
+    let input: Vec<Vector3<f64>> = input.iter().map(|p| to_m * p).collect();
+    let b0 = arc[..=event[0]].partition_point(|&s| s < arc[event[0]] - approach);
+    let (a_gt, b_gt) = (&truth[..=a_end], &truth[b0..=deadline]);
+    let (a_in, b_in) = (&input[..=a_end], &input[b0..=deadline]);
+    let common = overlap(a_gt, b_gt, radius);
+    if common.b.len() < 3 {
+        return None;
+    }
+    // Where each common pose of B truly is: its nearest pose of A.
+    let nearest_a = |k: usize| {
+        (0..a_gt.len())
+            .min_by(|&i, &j| {
+                (a_gt[i] - b_gt[k])
+                    .norm_squared()
+                    .total_cmp(&(a_gt[j] - b_gt[k]).norm_squared())
+            })
+            .unwrap_or(0)
+    };
+    let mut b_true = b_in.to_vec();
+    let mut matched = Vec::with_capacity(common.b.len());
+    for &k in &common.b {
+        let j = nearest_a(k);
+        b_true[k] = a_in[j];
+        matched.push(j);
+    }
+    // The best-fit truth in the map's plane: a 3D fit of a nearly straight
+    // road may turn it over about its own axis, which the map cannot do.
+    let plane = Plane::fit(&input);
+    let pairs: Vec<_> = common
+        .b
+        .iter()
+        .map(|&k| (plane.to_2d(&b_true[k]), plane.to_2d(&b_in[k])))
+        .collect();
+    #[allow(non_snake_case)]
+    let a_T_b = plane.lift(&plane, &Similarity2::fit(&pairs, None)?);
+    let length: f64 = common
+        .b
+        .windows(2)
+        .filter(|w| w[1] == w[0] + 1)
+        .map(|w| (b_in[w[1]] - b_in[w[0]]).norm())
+        .sum();
+    let mid = common.b.len() / 2;
+    let distance = to_m * (arc_in[b0 + common.b[mid]] - arc_in[matched[mid]]);
+    // A placement's heading change: how far it turns the common road's
+    // direction within the plane.
+    let src: Vec<_> = common.b.iter().map(|&k| b_in[k]).collect();
+    let u = Plane::fit(&src).world_R_plane.column(0).into_owned();
+    let in_plane = |v: Vector3<f64>| plane.to_2d(&(plane.origin + v));
+    let prior = |p: &Similarity3| {
+        let offsets: Vec<f64> = src.iter().map(|x| (p.apply(x) - x).norm()).collect();
+        let heading = in_plane(p.rotation * u).angle(&in_plane(u));
+        drift.factor(heading, p.scale, median(&offsets), length, distance)
+    };
+    let amb = shape_rival_under(
+        a_in,
+        b_in,
+        &b_true,
+        &common,
+        &a_T_b,
+        super::loops::LOOP_RADIUS_M,
+        &prior,
+    );
+    // No placement passes: one similarity cannot hold the whole pass.
+    (amb.truth_prior > 0.0).then_some(amb)
 }
 
 /// The `q` quantile of `values` (nearest rank; 0 when empty).
@@ -340,7 +478,7 @@ impl PointGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::checks::overlap;
+
 
     /// B is A's road at scale 0.1, shifted: the truth maps it back exactly.
     fn case(
