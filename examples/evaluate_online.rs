@@ -228,7 +228,11 @@ fn main() {
         ok_all as f64 / c_all.max(1) as f64
     );
     let count = |rival: Option<bool>| {
-        let of: Vec<bool> = certified.iter().filter(|c| c.0 == rival).map(|c| c.1).collect();
+        let of: Vec<bool> = certified
+            .iter()
+            .filter(|c| c.0 == rival)
+            .map(|c| c.1)
+            .collect();
         (of.len(), of.iter().filter(|&&d| d).count())
     };
     let (rival, undecided, none) = (count(Some(true)), count(None), count(Some(false)));

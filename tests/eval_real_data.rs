@@ -109,3 +109,34 @@ fn a_straight_revisit_of_kitti05_is_ambiguous_by_shape_and_a_turning_overlap_is_
     // its floor.
     assert_eq!(turning.band_m, turnprint::eval::ambiguity::BAND_M.0);
 }
+
+/// Under the strong drift model (seed 1) the detector misses KITTI 00's
+/// first revisit (frames 1553-1645 over 116-207), yet the map's own poses
+/// decide it by the online deadline: its road and turns (over 90°, with
+/// the approach) lie on the earlier pass only where the truth puts them.
+/// The best failing move (the detector's probe put it 50 m along the road)
+/// keeps less than half of that.
+#[test]
+fn kitti00s_first_revisit_under_strong_drift_is_decidable_by_its_turns() {
+    let p = kitti00();
+    let truth = p.seq.gt.clone();
+    let mut rng = StdRng::seed_from_u64(1);
+    let drifted = DriftModel::strong().apply(&truth, &mut rng);
+    let arc = turnprint::eval::revisits::arc_lengths(&truth);
+    let deadline = arc.partition_point(|&s| s <= arc[1645] + 40.0);
+    let amb = turnprint::eval::ambiguity::revisit_rival(
+        &truth,
+        &drifted,
+        [1553, 1645],
+        deadline,
+        100.0,
+        300,
+        8.0,
+        &turnprint::score::DriftPrior::default(),
+    )
+    .expect("the earlier pass is in the map");
+    assert!(!amb.has_rival(), "{amb:?}");
+    assert!(amb.truth.turning_deg > 90.0, "{amb:?}");
+    let rival = amb.best_rival.expect("a failing move");
+    assert!(rival.support.length_m < 0.5 * amb.truth.length_m, "{amb:?}");
+}

@@ -479,7 +479,6 @@ impl PointGrid {
 mod tests {
     use super::*;
 
-
     /// B is A's road at scale 0.1, shifted: the truth maps it back exactly.
     fn case(
         a: &[Vector3<f64>],
@@ -533,5 +532,58 @@ mod tests {
         assert!(!amb.has_rival(), "{amb:?}");
         assert!((amb.truth.length_m - 290.0).abs() < 1e-6, "{amb:?}");
         assert!((amb.truth.turning_deg - 270.0).abs() < 10.0, "{amb:?}");
+    }
+
+    /// A drive east, round a block, and back along the first 100 m of the
+    /// drive from a road A never took; 1 m steps. Returns the poses and the
+    /// revisit event.
+    fn block_and_straight_revisit() -> (Vec<Vector3<f64>>, [usize; 2]) {
+        let mut path = vec![Vector3::zeros()];
+        let legs = [
+            (400, Vector3::x()),
+            (150, Vector3::z()),
+            (600, -Vector3::x()),
+            (150, -Vector3::z()),
+            (340, Vector3::x()),
+        ];
+        for (n, dir) in legs {
+            for _ in 0..n {
+                path.push(path[path.len() - 1] + dir);
+            }
+        }
+        // The last leg is on the first from x = 0 to its end, x = 140.
+        let first = path.len() - 141;
+        (path, [first, first + 100])
+    }
+
+    #[test]
+    fn a_straight_revisit_is_decided_by_position_unless_drift_slid_it() {
+        let (truth, event) = block_and_straight_revisit();
+        let prior = DriftPrior::default();
+        let certify = |input: &[Vector3<f64>]| {
+            revisit_rival(&truth, input, event, event[1] + 40, 100.0, 300, 8.0, &prior)
+        };
+        // A consistent map: the truth is the identity, the most plausible
+        // placement there is; a slide along the road is less plausible.
+        let consistent = certify(&truth).unwrap();
+        assert!(!consistent.has_rival(), "{consistent:?}");
+        assert!(consistent.truth_prior > 0.99, "{consistent:?}");
+        // Drift has moved the later pass 30 m along the road: the slide
+        // back onto the identity lays as much road onto A and is the more
+        // plausible, so neither shape nor position can tell them apart.
+        let first_back = 400 + 150 + 600;
+        let drifted: Vec<_> = truth
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                if i > first_back {
+                    p + Vector3::new(30.0, 0.0, 0.0)
+                } else {
+                    *p
+                }
+            })
+            .collect();
+        let slid = certify(&drifted).unwrap();
+        assert!(slid.has_rival(), "{slid:?}");
     }
 }
