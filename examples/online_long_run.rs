@@ -1,8 +1,10 @@
 //! A 10-million-pose synthetic run (EVALUATION_ONLINE.md, "Memory"): push
 //! latency per million poses stays flat and memory grows linearly.
 //!
-//! `cargo run --release --example online_long_run -- [POSES]` (default
-//! 10 000 000). Prints, per million poses: push p50/p99/max (ns, measured
+//! `cargo run --release --example online_long_run -- [POSES] [EVERY]`
+//! (default 10 000 000 poses; `EVERY` = k keeps every k-th pose of the
+//! drive, so each pose spans k times the road: a sparse input such as a
+//! 1 Hz GPS against 10 Hz odometry, default 1). Prints, per million poses: push p50/p99/max (ns, measured
 //! around each push), the process's resident memory, and at the end the
 //! detector's own count of history bytes per pose.
 
@@ -27,6 +29,11 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(10_000_000);
+    let every: usize = std::env::args()
+        .nth(2)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1)
+        .max(1);
     let chunk = 1_000_000.min(total);
     let rss0 = rss_bytes();
     let mut d = Detector::new(OnlineConfig::default(), Overflow::MergeLatest);
@@ -36,7 +43,7 @@ fn main() {
     println!(
         "poses     push_p50_ns push_p99_ns push_max_ns  rss_MB  rss_bytes_per_pose  candidates"
     );
-    for (i, p) in CityDrive::new(11).take(total).enumerate() {
+    for (i, p) in CityDrive::new(11).step_by(every).take(total).enumerate() {
         let t = Instant::now();
         d.push(&PoseInput::at(p));
         lat.push(t.elapsed().as_nanos() as u64);
