@@ -3,10 +3,10 @@
 //!
 //! `cargo run --release --example online_long_run -- [POSES] [EVERY]`
 //! (default 10 000 000 poses; `EVERY` = k keeps every k-th pose of the
-//! drive, so each pose spans k times the road: a sparse input such as a
-//! 1 Hz GPS against 10 Hz odometry, default 1). Prints, per million poses: push p50/p99/max (ns, measured
-//! around each push), the process's resident memory, and at the end the
-//! detector's own count of history bytes per pose.
+//! drive, so each pose spans k times the road, as a 1 Hz GPS does against
+//! 10 Hz odometry; default 1). Prints, per million poses: push p50/p99/max
+//! (ns, measured around each push), the process's resident memory, and at
+//! the end the detector's own count of history bytes per pose.
 
 use std::time::Instant;
 

@@ -27,10 +27,15 @@
 //! A's poses, and the turning of B between chords of about 10 m (in
 //! A's frame) whose three knots lie within that band; turns are what shape
 //! matching sees, so a rival that slides B's turns off A's has none. The
-//! band is twice the truth's own misfit to A (75th percentile), between 1 and 8 m: a
-//! ground-truth B on its own drive fits A to the centimetre, so a rival
-//! must too, while a monocular B or another lane of the road may stray as
-//! far as the truth does.
+//! band is twice the truth's own misfit to A (75th percentile), between 1
+//! and 8 m: a ground-truth B on its own drive fits A to the centimetre, so
+//! a rival must too, while a monocular B or another lane of the road may
+//! stray as far as the truth does.
+//!
+//! The same certificate answers it for one map's revisit events
+//! ([`revisit_rival`]): B is the later pass as seen by a deadline, A the
+//! map before it, and every placement is weighed by the drift prior, so
+//! that in a consistent map position decides and under drift it may not.
 
 use std::collections::HashMap;
 
@@ -167,24 +172,14 @@ fn settle(grid: &PointGrid, b_in_a: &[Vector3<f64>], mut d: Similarity3) -> Simi
 /// `b_input` over A's true positions `a_true`; `b_true` are B's true
 /// positions (A's frame) and `truth` the common road with its tolerance
 /// `tolerance`.
+///
+/// `prior` says how plausible a placement of B in A's frame is before any
+/// shape is seen (`|_| 1.0` for two maps of unknown relation; the drift
+/// prior for one map's revisit): a rival must also be at least as
+/// plausible as the most plausible passing placement, or knowing where B
+/// should be would decide.
 #[allow(non_snake_case)]
 pub fn shape_rival(
-    a_true: &[Vector3<f64>],
-    b_input: &[Vector3<f64>],
-    b_true: &[Vector3<f64>],
-    truth: &Overlap,
-    a_T_b: &Similarity3,
-    tolerance: f64,
-) -> Ambiguity {
-    shape_rival_under(a_true, b_input, b_true, truth, a_T_b, tolerance, &|_| 1.0)
-}
-
-/// As [`shape_rival`], where `prior` says how plausible a placement of B
-/// in A's frame is before any shape is seen (the drift prior of one map's
-/// revisit): a rival must then also be at least as plausible as the most
-/// plausible passing placement, or knowing where B should be would decide.
-#[allow(non_snake_case)]
-pub fn shape_rival_under(
     a_true: &[Vector3<f64>],
     b_input: &[Vector3<f64>],
     b_true: &[Vector3<f64>],
@@ -390,7 +385,7 @@ pub fn revisit_rival(
         let heading = in_plane(p.rotation * u).angle(&in_plane(u));
         drift.factor(heading, p.scale, median(&offsets), length, distance)
     };
-    let amb = shape_rival_under(
+    let amb = shape_rival(
         a_in,
         b_in,
         &b_true,
@@ -505,7 +500,7 @@ mod tests {
             .collect();
         let (b_input, b_true, o, fit) = case(&a, b);
         let tol = (0.02 * o.length).max(3.0);
-        let amb = shape_rival(&a, &b_input, &b_true, &o, &fit, tol);
+        let amb = shape_rival(&a, &b_input, &b_true, &o, &fit, tol, &|_| 1.0);
         assert!(amb.has_rival(), "{amb:?}");
         assert!(amb.best_rival.unwrap().median_error > tol);
     }
@@ -528,7 +523,7 @@ mod tests {
         let b: Vec<_> = a[50..=340].to_vec();
         let (b_input, b_true, o, fit) = case(&a, b);
         let tol = (0.02 * o.length).max(3.0);
-        let amb = shape_rival(&a, &b_input, &b_true, &o, &fit, tol);
+        let amb = shape_rival(&a, &b_input, &b_true, &o, &fit, tol, &|_| 1.0);
         assert!(!amb.has_rival(), "{amb:?}");
         assert!((amb.truth.length_m - 290.0).abs() < 1e-6, "{amb:?}");
         assert!((amb.truth.turning_deg - 270.0).abs() < 10.0, "{amb:?}");

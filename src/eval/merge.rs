@@ -260,9 +260,17 @@ pub fn run_case(
         true => run_match(&a_traj, &b_traj, top_k),
         false => (Vec::new(), 0.0, None),
     };
-    let ambiguity = oracle
-        .as_ref()
-        .map(|(o, v)| shape_rival(&a_cut.truth, &b.input, &b.truth, &truth, o, v.tolerance));
+    let ambiguity = oracle.as_ref().map(|(o, v)| {
+        shape_rival(
+            &a_cut.truth,
+            &b.input,
+            &b.truth,
+            &truth,
+            o,
+            v.tolerance,
+            &|_| 1.0,
+        )
+    });
     let hypotheses = hyps
         .into_iter()
         .map(|h| {
