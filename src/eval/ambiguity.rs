@@ -311,9 +311,9 @@ pub fn shape_rival(
 /// (offsets, lengths and distances along the map's own path), so in a
 /// consistent map, where the truth is the identity, a slid copy is less
 /// plausible and position decides; under drift it may not be. `None` when
-/// the event has no earlier pass in A, too few common poses to fit, or
-/// is too long for one similarity of the drifting map to place within
-/// the loop test's radius.
+/// the event lies beyond the poses or after the deadline, has no earlier
+/// pass in A, too few common poses to fit, or is too long for one
+/// similarity of the drifting map to place within the loop test's radius.
 #[allow(clippy::too_many_arguments)]
 pub fn revisit_rival(
     truth: &[Vector3<f64>],
@@ -325,8 +325,12 @@ pub fn revisit_rival(
     radius: f64,
     drift: &DriftPrior,
 ) -> Option<Ambiguity> {
+    let n = truth.len().min(input.len());
+    let deadline = deadline.min(n.saturating_sub(1));
+    if event[0] >= n || deadline < event[0] {
+        return None;
+    }
     let a_end = event[0].checked_sub(min_gap)?;
-    let deadline = deadline.min(truth.len() - 1).min(input.len() - 1);
     let arc = arc_lengths(truth);
     // The map in ground-truth units (a monocular map has its own), so that
     // the band and the knots mean the same on every input.
