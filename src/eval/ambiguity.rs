@@ -585,4 +585,16 @@ mod tests {
         let slid = certify(&drifted).unwrap();
         assert!(slid.has_rival(), "{slid:?}");
     }
+
+    #[test]
+    fn an_event_beyond_the_poses_or_after_its_deadline_has_no_certificate() {
+        let (truth, event) = block_and_straight_revisit();
+        let prior = DriftPrior::default();
+        let n = truth.len();
+        let beyond = revisit_rival(&truth, &truth, [n, n + 10], n + 50, 100.0, 300, 8.0, &prior);
+        assert!(beyond.is_none());
+        let late = revisit_rival(&truth, &truth, event, event[0] - 1, 100.0, 300, 8.0, &prior);
+        assert!(late.is_none());
+        assert!(revisit_rival(&[], &[], [0, 0], 0, 100.0, 0, 8.0, &prior).is_none());
+    }
 }
