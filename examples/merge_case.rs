@@ -1,9 +1,9 @@
 //! Replays one merge case of the evaluation and shows why it went the way
 //! it did: the true common road, how close the best single similarity
 //! gets, whether a failing placement is as well supported by shape
-//! (`turnprint::eval::ambiguity`), and each hypothesis with its verdict. Take the windows from a
-//! failure in `evaluate --json` (`sequence`, `source`, `a_frames`,
-//! `b_frames`, `reversed`).
+//! (`turnprint::eval::ambiguity`), and each hypothesis with its verdict.
+//! Take the windows from a failure in `evaluate --json` (`sequence`,
+//! `source`, `a_frames`, `b_frames`, `reversed`).
 //!
 //! Usage: `cargo run --release --example merge_case -- SEQ SOURCE A0 A1 B0
 //! B1 [reversed] [TOP]` (`SOURCE`: gt, mono or gps; `TOP` hypotheses,

@@ -144,8 +144,8 @@ fn scaling(c: Vector3<f64>, f: f64) -> Similarity3 {
 /// pulls B's poses within two bands of A onto their nearest pose of A and
 /// refits the rotation and translation at `d`'s scale. On a straight this
 /// fixes the sideways offset and the heading and leaves the slide along
-/// the road; near a turn it pulls a
-/// moved placement back towards the truth.
+/// the road; near a turn it pulls a moved placement back towards the
+/// truth.
 fn settle(grid: &PointGrid, b_in_a: &[Vector3<f64>], mut d: Similarity3) -> Similarity3 {
     for _ in 0..SETTLE_ROUNDS {
         let (src, dst): (Vec<_>, Vec<_>) = b_in_a
@@ -169,9 +169,10 @@ fn settle(grid: &PointGrid, b_in_a: &[Vector3<f64>], mut d: Similarity3) -> Simi
 }
 
 /// Looks for a shape rival of `a_T_b` (the best-fit truth) for B's poses
-/// `b_input` over A's true positions `a_true`; `b_true` are B's true
-/// positions (A's frame) and `truth` the common road with its tolerance
-/// `tolerance`.
+/// `b_input` over A's positions `a_true` (true ones for a merge, the
+/// map's own for a revisit: the frame placements are judged in); `b_true`
+/// are where B's common poses truly lie in that frame and `truth` the
+/// common road with its tolerance `tolerance`.
 ///
 /// `prior` says how plausible a placement of B in A's frame is before any
 /// shape is seen (`|_| 1.0` for two maps of unknown relation; the drift

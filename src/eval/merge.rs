@@ -65,7 +65,8 @@ pub struct MergeCase {
     /// Whether shape alone could place B: the truth's support against its
     /// best failing rival ([`super::ambiguity`]; `None` without an oracle).
     pub ambiguity: Option<Ambiguity>,
-    /// A failing rival lays as much of B onto A as the truth does.
+    /// A failing rival lays as much of B onto A as the truth does
+    /// (`ambiguity`'s `has_rival`, written out for readers of the JSON).
     pub shape_rival: bool,
     /// Wall time of `match_paths`.
     pub seconds: f64,
