@@ -149,7 +149,7 @@ fn match_segment_on(c: &mut Criterion, name: &str, points: &[Vector3<f64>]) {
         b.iter(|| {
             state.searcher.add_piece(&state.history, k, keep);
             let shape = state.searcher.shape_candidates(&state.history, &config);
-            verify_all(&state.history, &frame, &shape, None, &config)
+            verify_all(&state.history, &frame, &shape, None, None, &config)
         })
     });
     g.finish();

@@ -240,8 +240,9 @@ fn candidates_carry_a_keyframe_pair_for_the_verifier() {
         assert!((h.b_range[0]..=h.b_range[1]).contains(&k.match_pose));
         // Ground truth: the two keyframes see the same place (within 15 m)
         // whenever the candidate is a true revisit of a consistent map (the
-        // drifting-map probe's candidates are other roads on this one).
-        if c.source != turnprint::online::Source::DriftProbe {
+        // drifting-map searches' candidates are other roads on this one).
+        use turnprint::online::Source;
+        if !matches!(c.source, Source::DriftProbe | Source::Network) {
             assert!(
                 (points[k.query_pose] - points[k.match_pose]).norm() < 15.0,
                 "{k:?}"

@@ -95,7 +95,8 @@ enum {
 enum {
     TP_SOURCE_SHAPE = 0,       /* the shape search */
     TP_SOURCE_PROXIMITY = 1,   /* near the current position in the map */
-    TP_SOURCE_DRIFT_PROBE = 2  /* farther away, for a drifting map */
+    TP_SOURCE_DRIFT_PROBE = 2, /* farther away, for a drifting map */
+    TP_SOURCE_NETWORK = 3      /* placed on the whole road network, drifting map */
 };
 
 /* A loop-closure candidate: the newest part of the path (query, later)

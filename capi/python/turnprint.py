@@ -24,7 +24,7 @@ __all__ = ["Detector", "Candidate", "Hypothesis", "TurnprintError", "match_paths
            "find_loops", "load"]
 
 ACCEPTED, REJECTED_NON_FINITE, REJECTED_OUT_OF_ORDER, REJECTED_DUPLICATE = 0, 1, 2, 3
-SOURCES = ("shape", "proximity", "drift-probe")
+SOURCES = ("shape", "proximity", "drift-probe", "network")
 
 
 class TurnprintError(RuntimeError):

@@ -361,6 +361,7 @@ fn candidate(e: &CandidateEvent) -> TpCandidate {
             Source::Shape => 0,
             Source::Proximity => 1,
             Source::DriftProbe => 2,
+            Source::Network => 3,
         },
         scale: h.scale,
         rotation: row_major(&h.rotation),

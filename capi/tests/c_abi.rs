@@ -133,6 +133,7 @@ fn rust_candidates_with(path: &Path, config: OnlineConfig) -> Vec<String> {
                     Source::Shape => 0,
                     Source::Proximity => 1,
                     Source::DriftProbe => 2,
+                    Source::Network => 3,
                 },
                 h.reversed as i32,
             )

@@ -17,6 +17,11 @@ pub enum Source {
     /// The drifting-map probe ([`super::OnlineConfig::drift_probe`]): its
     /// score is low by design, the verifier decides.
     DriftProbe,
+    /// The newest stretch registered onto the whole road network
+    /// ([`super::register`]), where the drifting-map probe's seed found a
+    /// road but no candidate: a drifted revisit that entered and left the
+    /// earlier road by other roads. Emitted like the drift probe's.
+    Network,
 }
 
 impl Source {
@@ -26,6 +31,7 @@ impl Source {
             Source::Shape => "shape",
             Source::Proximity => "proximity",
             Source::DriftProbe => "drift-probe",
+            Source::Network => "network",
         }
     }
 }

@@ -324,6 +324,27 @@ impl SpatialIndex {
         best
     }
 
+    /// Calls `f` with every indexed sample in the cells within `radius` of
+    /// `center` (a superset of the samples within `radius`).
+    pub fn samples_near(&self, center: &Vector2<f64>, radius: f64, mut f: impl FnMut(usize)) {
+        let (lo, hi) = (
+            self.key(&(center - Vector2::new(radius, radius))),
+            self.key(&(center + Vector2::new(radius, radius))),
+        );
+        for cx in lo.0..=hi.0 {
+            for cy in lo.1..=hi.1 {
+                for &i in self.cells.get(&(cx, cy)).into_iter().flatten() {
+                    f(i as usize);
+                }
+            }
+        }
+    }
+
+    /// One sample in this many is indexed.
+    pub fn every(&self) -> usize {
+        self.every
+    }
+
     /// Bytes held (approximate: entries plus per-cell overhead).
     pub fn bytes(&self) -> usize {
         self.cells.values().map(|v| v.capacity() * 4 + 48).sum()

@@ -24,6 +24,7 @@ pub mod frontend;
 pub mod guard;
 pub mod history;
 pub mod scan;
+pub mod register;
 pub mod search;
 pub mod synthetic;
 pub mod worker;

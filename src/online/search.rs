@@ -9,6 +9,7 @@ use std::collections::HashMap;
 use super::correlator::{BlockCorrelator, Piece};
 use super::events::Source;
 use super::history::{History, SpatialIndex, Window};
+use super::register;
 use super::scan;
 use super::{Exclusion, OnlineConfig};
 use nalgebra::Vector2;
@@ -309,6 +310,7 @@ pub fn verify_all(
     frame: &Frame,
     shape: &[Candidate],
     seed: Option<ProximitySeed>,
+    spatial: Option<&SpatialIndex>,
     config: &OnlineConfig,
 ) -> Vec<Found> {
     let pc = &config.pipeline;
@@ -448,9 +450,91 @@ pub fn verify_all(
                 found.extend(finish(h, &tw, &qw, &v, frame, config, source));
             }
         }
+        // Where the seed found a road but no candidate, the newest stretch
+        // placed on the whole network (the drifting map's search).
+        if let Some(spatial) = spatial.filter(|_| config.drift_radius() > 0.0) {
+            if !found.iter().any(|f| emitted(f, config, frame.step)) {
+                found.extend(register_newest(h, spatial, frame, seed, config));
+            }
+        }
     }
     found.retain(|f| emitted(f, config, frame.step));
     rank(found, config.top_k, f64::NEG_INFINITY, Duplicates::Place)
+}
+
+/// Probe periods of track samples the network registration places: about
+/// 100 m on KITTI, long enough to reach the junctions at both ends of a
+/// block (3 periods: one strong-drift event fewer of 44; 6: the same events,
+/// more false candidates).
+const REGISTER_PERIODS: usize = 4;
+/// Least turning (radians) of a window worth registering: one that barely
+/// turns slides along its road and nothing pins it (1 rad, a junction's
+/// turn, halves the calls on KITTI 00 at one strong-drift event of 44).
+const REGISTER_MIN_TURNING: f64 = 1.0;
+/// Least [`register::Registration::margin`] of an emitted placement over its
+/// best rival: a window that fits two places about as well is left to the
+/// later windows (at 1.0, 1.5 times the false candidates; at 1.3, two
+/// strong-drift events fewer of 44).
+const REGISTER_MARGIN: f64 = 1.2;
+
+/// The newest stretch registered onto the map's road network
+/// ([`register`]) where the probe's seed found a road but no candidate:
+/// verified from the registered placement.
+fn register_newest(
+    h: &History,
+    spatial: &SpatialIndex,
+    frame: &Frame,
+    seed: &ProximitySeed,
+    config: &OnlineConfig,
+) -> Option<Found> {
+    let prior = config.pipeline.drift_prior.as_ref()?;
+    let g1 = seed.query[1];
+    let g0 = g1.checked_sub(REGISTER_PERIODS * config.probe_every)?;
+    let length = h.s[g1] - h.s[g0];
+    let turning: f64 = (g0..g1)
+        .map(|g| (h.curvature[g] as f64).abs() * (h.s[g + 1] - h.s[g]))
+        .sum();
+    if turning < REGISTER_MIN_TURNING || length <= 0.0 {
+        return None;
+    }
+    // The drift prior's reach at the seed's distance: 1.5 times its
+    // position sigma, two of its heading sigmas.
+    let between = (h.s[g0] - h.s[seed.target]).max(0.0);
+    let ratio = (between / length).sqrt();
+    let bounds = register::Bounds {
+        radius: 0.25 * length + 1.5 * config.drift_radius() * between,
+        angle: 2.0 * (prior.heading_floor + prior.heading * ratio),
+        exclude: length,
+        gap: spatial.every() as f64 * frame.step,
+    };
+    let placed = register::register(h, spatial, g0, g1, &bounds, prior)?;
+    if placed.margin < REGISTER_MARGIN {
+        return None;
+    }
+    let window = |a: usize, b: usize| {
+        h.window(
+            a,
+            b,
+            &frame.plane,
+            frame.step,
+            frame.bandwidth,
+            config.pipeline.signature.dk,
+            frame.poses,
+        )
+    };
+    let room = g1 - g0;
+    let qw = window(g0, g1)?;
+    let tw = window(placed.target.saturating_sub(room), placed.target + room)?;
+    let allowed = |g: usize, v: f64| {
+        let sq = h.s[g + qw.grid0];
+        let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
+        (sq - st).abs() > length
+    };
+    let xy = qw.path.points(false);
+    let local = [g0.checked_sub(qw.grid0)?, g1.checked_sub(qw.grid0)?];
+    let pc = &config.pipeline;
+    let v = verify::verify_seeded(&tw.path, &qw.path, &xy, local, placed.sim, false, pc, &allowed)?;
+    finish(h, &tw, &qw, &v, frame, config, Source::Network)
 }
 
 /// Whether a candidate is emitted: its score reaches the cut of its
@@ -467,7 +551,7 @@ pub fn verify_all(
 fn emitted(f: &Found, config: &OnlineConfig, step: f64) -> bool {
     let h = &f.hypothesis;
     match f.source {
-        Source::DriftProbe => {
+        Source::DriftProbe | Source::Network => {
             h.score >= config.drift_min_score
                 && h.scale.ln().abs() <= DRIFT_SCALE.ln()
                 && h.length >= DRIFT_MIN_WINDOW * (2 * config.probe_every) as f64 * step

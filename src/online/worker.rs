@@ -217,7 +217,8 @@ impl WorkerState {
             ),
             _ => None,
         };
-        let found = verify_all(h, frame, &shape, seed, &self.config);
+        let spatial = self.searcher.spatial.as_ref();
+        let found = verify_all(h, frame, &shape, seed, spatial, &self.config);
         let mut events = Vec::new();
         for f in found {
             let hy = f.hypothesis;

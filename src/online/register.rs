@@ -1,0 +1,364 @@
+//! Registration of the newest stretch of path onto the map's road network:
+//! where a drifted later pass lies on everything driven before, not only on
+//! the one earlier pass it is compared with.
+//!
+//! Pairwise matching (one later window against one earlier window) cannot
+//! place a straight that the later pass enters and leaves by other roads
+//! than the earlier pass did: along the common straight every slide fits,
+//! and the turns at its ends lie on *other* earlier passes (KITTI 00 poses
+//! 1553-1645 under strong drift: every pairwise candidate slid 40-55 m).
+//! Here each window point votes, with every earlier map sample of a
+//! compatible road direction, for the rotation and translation that would
+//! lay it there (a Hough transform over the similarity); the placement most
+//! window points agree on, refined on the map and weighed by the drift
+//! prior, is where the turns pin the window along its roads.
+//!
+//! ```text
+//!   theta = axial(psi_map - phi_window)          (direction of travel free)
+//!   t     = m - c - R(theta) (p - c)             (about the window centroid c)
+//!   vote (theta, t) for window point p; placement = most agreeing points
+//! ```
+
+use std::collections::HashMap;
+
+use nalgebra::Vector2;
+
+use super::history::{CellHash, History, SpatialIndex};
+use crate::geometry::Similarity2;
+use crate::score::DriftPrior;
+
+/// Window points that vote (one bit each of a `u64`).
+const POINTS: usize = 48;
+/// Rotation bin of the vote.
+const ANGLE_BIN: f64 = 3.0 * std::f64::consts::PI / 180.0;
+/// A window point lies on the map within this fraction of the window's
+/// length (2.4 m on a 96 m window of KITTI): the band of a road's lanes.
+pub const BAND_FRACTION: f64 = 0.025;
+/// Window points that vote at most (those that turn most).
+const VOTERS: usize = 16;
+/// Vote cells checked as placements, most agreeing points first.
+const TOP_CELLS: usize = 8;
+/// Placements refined further, best first.
+const TOP_REFINED: usize = 3;
+/// Refit rounds of every checked placement, and of the best few.
+const ROUNDS: (usize, usize) = (1, 3);
+
+/// A placement of the window on the map.
+#[derive(Debug, Clone, Copy)]
+pub struct Registration {
+    /// `history_T_window`: the window's points onto the map (one frame, so
+    /// near identity up to drift).
+    pub sim: Similarity2,
+    /// Map sample the window's middle lands on.
+    pub target: usize,
+    /// Turning-weighted share of the window points within the band.
+    pub support: f64,
+    /// Drift-prior factor of the placement.
+    pub prior: f64,
+    /// The best placement's score (support times the prior's square root)
+    /// over the best rival placement's (rotated by more than a bin, or the
+    /// window's middle moved by more than two bands): infinite when there
+    /// is none. A straight window slides along its road: margin near 1.
+    pub margin: f64,
+}
+
+/// Where the drift allows the window to lie.
+#[derive(Debug, Clone, Copy)]
+pub struct Bounds {
+    /// Largest translation of the window's centroid.
+    pub radius: f64,
+    /// Largest rotation (radians).
+    pub angle: f64,
+    /// Map samples at least this much arc length before the window's start
+    /// (the window's own neighbourhood excluded).
+    pub exclude: f64,
+    /// Largest distance between two indexed map samples along a road.
+    pub gap: f64,
+}
+
+/// Direction of the track at sample `g` (central difference).
+fn heading(h: &History, g: usize) -> f64 {
+    let last = h.xy.len() - 1;
+    let d = h.point((g + 1).min(last)) - h.point(g.saturating_sub(1));
+    d.y.atan2(d.x)
+}
+
+/// `x` in `[-2 pi, 2 pi]` wrapped into `[-pi/2, pi/2]`: the difference of
+/// two road directions when either may be driven either way.
+fn axial(mut x: f64) -> f64 {
+    let pi = std::f64::consts::PI;
+    while x > pi / 2.0 {
+        x -= pi;
+    }
+    while x < -pi / 2.0 {
+        x += pi;
+    }
+    x
+}
+
+/// The map samples in reach of the window, with a grid for nearest lookups.
+struct Map {
+    /// Position, road direction, track sample.
+    samples: Vec<(Vector2<f64>, f64, u32)>,
+    /// Samples by cell of `cell`.
+    grid: HashMap<(i32, i32), Vec<u32>, CellHash>,
+    cell: f64,
+}
+
+impl Map {
+    fn key(&self, p: &Vector2<f64>) -> (i32, i32) {
+        ((p.x / self.cell).floor() as i32, (p.y / self.cell).floor() as i32)
+    }
+
+    /// The nearest sample within one cell of `p`.
+    fn nearest(&self, p: &Vector2<f64>) -> Option<usize> {
+        let (kx, ky) = self.key(p);
+        let mut best: Option<(f64, usize)> = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for &j in self.grid.get(&(kx + dx, ky + dy)).into_iter().flatten() {
+                    let d2 = (self.samples[j as usize].0 - p).norm_squared();
+                    if best.is_none_or(|b| d2 < b.0) {
+                        best = Some((d2, j as usize));
+                    }
+                }
+            }
+        }
+        best.filter(|b| b.0 <= self.cell * self.cell).map(|b| b.1)
+    }
+}
+
+/// The window: points, turning weights, centroid.
+struct Window {
+    points: Vec<(Vector2<f64>, f64)>,
+    weights: Vec<f64>,
+    total: f64,
+}
+
+impl Window {
+    /// The turning-weighted share of points within the map's cell of a
+    /// sample under `sim`, and the pairs `(map, window)` that are.
+    fn support(&self, map: &Map, sim: &Similarity2) -> (f64, Vec<(Vector2<f64>, Vector2<f64>)>, Vec<f64>) {
+        let (mut support, mut pairs, mut w) = (0.0, Vec::new(), Vec::new());
+        for ((p, _), wi) in self.points.iter().zip(&self.weights) {
+            if let Some(j) = map.nearest(&sim.apply(p)) {
+                support += wi;
+                pairs.push((map.samples[j].0, *p));
+                w.push(*wi);
+            }
+        }
+        (support / self.total, pairs, w)
+    }
+
+    /// `rounds` rigid refits of `sim` on the map (a free scale would shrink
+    /// the window onto any dense part of the map), and the support.
+    fn refine(&self, map: &Map, mut sim: Similarity2, rounds: usize) -> (Similarity2, f64) {
+        for _ in 0..rounds {
+            let (_, pairs, w) = self.support(map, &sim);
+            let Some(fit) = Similarity2::fit(&pairs, Some(&w)).filter(|_| pairs.len() >= 3) else {
+                break;
+            };
+            let rotate = Similarity2 {
+                scale: 1.0,
+                angle: fit.angle,
+                translation: Vector2::zeros(),
+            };
+            let (mut cm, mut cq, mut ws) = (Vector2::zeros(), Vector2::zeros(), 0.0);
+            for ((m, q), wi) in pairs.iter().zip(&w) {
+                cm += m * *wi;
+                cq += q * *wi;
+                ws += wi;
+            }
+            sim = Similarity2 {
+                translation: cm / ws - rotate.apply(&(cq / ws)),
+                ..rotate
+            };
+        }
+        (sim, self.support(map, &sim).0)
+    }
+}
+
+/// The best placement of track samples `[g0, g1]` on the map within
+/// `bounds`, or `None` when no map sample is in reach.
+pub fn register(
+    h: &History,
+    spatial: &SpatialIndex,
+    g0: usize,
+    g1: usize,
+    bounds: &Bounds,
+    prior: &DriftPrior,
+) -> Option<Registration> {
+    let length = h.s[g1] - h.s[g0];
+    if length <= 0.0 || g1 < g0 + POINTS {
+        return None;
+    }
+    let band = BAND_FRACTION * length;
+    // Window points, weighted by turning: the turns are what pin a window
+    // along its roads.
+    let points: Vec<(Vector2<f64>, f64)> = (0..POINTS)
+        .map(|k| {
+            let g = g0 + k * (g1 - g0) / (POINTS - 1);
+            (h.point(g), heading(h, g))
+        })
+        .collect();
+    let kappa: Vec<f64> = (0..POINTS)
+        .map(|k| (h.curvature[g0 + k * (g1 - g0) / (POINTS - 1)] as f64).abs())
+        .collect();
+    let mean_k = kappa.iter().sum::<f64>() / POINTS as f64;
+    let weights: Vec<f64> = kappa
+        .iter()
+        .map(|k| 1.0 + k / mean_k.max(f64::MIN_POSITIVE))
+        .collect();
+    let centroid = points.iter().map(|p| p.0).sum::<Vector2<f64>>() / POINTS as f64;
+    let window = Window {
+        total: weights.iter().sum(),
+        points,
+        weights,
+    };
+    let half = window
+        .points
+        .iter()
+        .map(|p| (p.0 - centroid).norm())
+        .fold(0.0, f64::max);
+    // Map samples in reach, with their road directions. The map is indexed
+    // every few samples: a point between two indexed samples is on the
+    // road within half their spacing.
+    let s_end = h.s[g0] - bounds.exclude;
+    let reach = bounds.radius + half + band;
+    let mut map = Map {
+        samples: Vec::new(),
+        grid: HashMap::default(),
+        cell: band + 0.5 * bounds.gap,
+    };
+    spatial.samples_near(&centroid, reach, |t| {
+        if h.s[t] <= s_end && (h.point(t) - centroid).norm() <= reach {
+            map.samples.push((h.point(t), heading(h, t), t as u32));
+        }
+    });
+    if map.samples.is_empty() {
+        return None;
+    }
+    for j in 0..map.samples.len() {
+        let k = map.key(&map.samples[j].0);
+        map.grid.entry(k).or_default().push(j as u32);
+    }
+    // Votes: (rotation bin, translation cell) -> the window points agreeing.
+    let key = |v: f64| (v / band).floor() as i32;
+    let mut votes: HashMap<(i32, i32, i32), u64, CellHash> = HashMap::default();
+    let na = (bounds.angle / ANGLE_BIN).ceil() as i32;
+    let rot: Vec<(f64, f64)> = (-na..=na)
+        .map(|b| (b as f64 * ANGLE_BIN).sin_cos())
+        .collect();
+    let (r2, near2) = (
+        bounds.radius * bounds.radius,
+        (bounds.radius + half).powi(2),
+    );
+    // Only the points that turn more than the window's mean vote: a point
+    // on a straight votes for a whole line of slides along every parallel
+    // road, and costs as much as one in a turn, which pins the window.
+    let mut voters: Vec<usize> = (0..POINTS).filter(|&i| window.weights[i] > 2.0).collect();
+    voters.sort_by(|&a, &b| window.weights[b].total_cmp(&window.weights[a]));
+    voters.truncate(VOTERS);
+    for i in voters {
+        let (p, phi) = &window.points[i];
+        let d = p - centroid;
+        for &(m, psi, _) in &map.samples {
+            if (m - p).norm_squared() > near2 {
+                continue;
+            }
+            let theta = axial(psi - phi);
+            if theta.abs() > bounds.angle {
+                continue;
+            }
+            let b = (theta / ANGLE_BIN).round() as i32;
+            let (s, c) = rot[(b + na) as usize];
+            let t = m - centroid - Vector2::new(c * d.x - s * d.y, s * d.x + c * d.y);
+            if t.norm_squared() > r2 {
+                continue;
+            }
+            *votes.entry((b, key(t.x), key(t.y))).or_default() |= 1 << i;
+        }
+    }
+    let weight_of = |bits: u64| -> f64 {
+        (0..POINTS)
+            .filter(|i| bits & (1 << i) != 0)
+            .map(|i| window.weights[i])
+            .sum()
+    };
+    // The cells most points agree on, each with its neighbours' votes
+    // (heading noise and the bin edges scatter a placement over them).
+    let mut cells: Vec<((i32, i32, i32), u64)> = votes.iter().map(|(k, v)| (*k, *v)).collect();
+    cells.sort_unstable_by_key(|(_, bits)| std::cmp::Reverse(bits.count_ones()));
+    cells.truncate(TOP_CELLS);
+    let score = |sim: &Similarity2, support: f64| -> Option<(f64, Registration)> {
+        let middle = sim.apply(&window.points[POINTS / 2].0);
+        let target = map.samples[map.nearest(&middle)?].2 as usize;
+        let mut offsets: Vec<f64> = window
+            .points
+            .iter()
+            .map(|(p, _)| (sim.apply(p) - p).norm())
+            .collect();
+        offsets.sort_by(f64::total_cmp);
+        let angle = sim.angle.rem_euclid(std::f64::consts::TAU);
+        let angle = angle.min(std::f64::consts::TAU - angle);
+        let between = (h.s[g0] - h.s[target]).max(0.0);
+        let factor = prior.factor(angle, 1.0, offsets[POINTS / 2], length, between);
+        Some((
+            support * factor.sqrt(),
+            Registration {
+                sim: *sim,
+                target,
+                support,
+                prior: factor,
+                margin: f64::INFINITY,
+            },
+        ))
+    };
+    let mut placements: Vec<(f64, Registration)> = Vec::new();
+    for ((b, kx, ky), _) in cells {
+        let mut bits = 0u64;
+        for db in -1..=1 {
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    if let Some(v) = votes.get(&(b + db, kx + dx, ky + dy)) {
+                        bits |= v;
+                    }
+                }
+            }
+        }
+        if weight_of(bits) < 0.25 * window.total {
+            continue;
+        }
+        // history_T_window about the centroid: p -> c + t + R (p - c).
+        let rotate = Similarity2 {
+            scale: 1.0,
+            angle: b as f64 * ANGLE_BIN,
+            translation: Vector2::zeros(),
+        };
+        let t = Vector2::new((kx as f64 + 0.5) * band, (ky as f64 + 0.5) * band);
+        let start = Similarity2 {
+            translation: centroid + t - rotate.apply(&centroid),
+            ..rotate
+        };
+        let (sim, support) = window.refine(&map, start, ROUNDS.0);
+        placements.extend(score(&sim, support));
+    }
+    placements.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for placement in placements.iter_mut().take(TOP_REFINED) {
+        let (sim, support) = window.refine(&map, placement.1.sim, ROUNDS.1 - ROUNDS.0);
+        if let Some(refined) = score(&sim, support) {
+            *placement = refined;
+        }
+    }
+    placements.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let (best_score, mut best) = placements.first().copied()?;
+    let mid = window.points[POINTS / 2].0;
+    let rival = placements.iter().skip(1).find(|(_, r)| {
+        axial(r.sim.angle - best.sim.angle).abs() > ANGLE_BIN
+            || (r.sim.apply(&mid) - best.sim.apply(&mid)).norm() > 2.0 * band
+    });
+    if let Some((rival_score, _)) = rival {
+        best.margin = best_score / rival_score.max(f64::MIN_POSITIVE);
+    }
+    Some(best)
+}
