@@ -34,8 +34,8 @@ const ANGLE_BIN: f64 = 3.0 * std::f64::consts::PI / 180.0;
 /// A window point lies on the map within this fraction of the window's
 /// length (2.4 m on a 96 m window of KITTI): the band of a road's lanes.
 pub const BAND_FRACTION: f64 = 0.025;
-/// Window points that vote at most (those that turn most).
-const VOTERS: usize = 16;
+/// One window point in this many votes.
+const VOTE_EVERY: usize = 2;
 /// Vote cells checked as placements, most agreeing points first.
 const TOP_CELLS: usize = 8;
 /// Placements refined further, best first.
@@ -253,12 +253,12 @@ pub fn register(
         bounds.radius * bounds.radius,
         (bounds.radius + half).powi(2),
     );
-    // Only the points that turn more than the window's mean vote: a point
-    // on a straight votes for a whole line of slides along every parallel
-    // road, and costs as much as one in a turn, which pins the window.
-    let mut voters: Vec<usize> = (0..POINTS).filter(|&i| window.weights[i] > 2.0).collect();
-    voters.sort_by(|&a, &b| window.weights[b].total_cmp(&window.weights[a]));
-    voters.truncate(VOTERS);
+    // Every other point votes: a point on a straight votes for a line of
+    // slides along each parallel road, and the lines of two straights that
+    // meet at a junction cross at the placement. (Only the points that turn
+    // most: one strong-drift event of 44 fewer; all 48 points: one more, at
+    // twice the time.)
+    let voters = (0..POINTS).step_by(VOTE_EVERY);
     for i in voters {
         let (p, phi) = &window.points[i];
         let d = p - centroid;
