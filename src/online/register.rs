@@ -204,11 +204,10 @@ pub fn register(
     let kappa: Vec<f64> = (0..POINTS)
         .map(|k| (h.curvature[g0 + k * (g1 - g0) / (POINTS - 1)] as f64).abs())
         .collect();
-    let mean_k = kappa.iter().sum::<f64>() / POINTS as f64;
-    let weights: Vec<f64> = kappa
-        .iter()
-        .map(|k| 1.0 + k / mean_k.max(f64::MIN_POSITIVE))
-        .collect();
+    // Relative to the window's mean curvature, but at least a radian of
+    // turning over the window: the noise of a straight weighs nothing.
+    let mean_k = (kappa.iter().sum::<f64>() / POINTS as f64).max(1.0 / length);
+    let weights: Vec<f64> = kappa.iter().map(|k| 1.0 + k / mean_k).collect();
     let centroid = points.iter().map(|p| p.0).sum::<Vector2<f64>>() / POINTS as f64;
     let window = Window {
         total: weights.iter().sum(),
@@ -279,14 +278,8 @@ pub fn register(
             *votes.entry((b, key(t.x), key(t.y))).or_default() |= 1 << i;
         }
     }
-    let weight_of = |bits: u64| -> f64 {
-        (0..POINTS)
-            .filter(|i| bits & (1 << i) != 0)
-            .map(|i| window.weights[i])
-            .sum()
-    };
-    // The cells most points agree on, each with its neighbours' votes
-    // (heading noise and the bin edges scatter a placement over them).
+    // The cells most points agree on, each refined on the map (heading noise
+    // and the bin edges scatter a placement over neighbouring cells).
     let mut cells: Vec<((i32, i32, i32), u64)> = votes.iter().map(|(k, v)| (*k, *v)).collect();
     cells.sort_unstable_by_key(|(_, bits)| std::cmp::Reverse(bits.count_ones()));
     cells.truncate(TOP_CELLS);
@@ -316,19 +309,6 @@ pub fn register(
     };
     let mut placements: Vec<(f64, Registration)> = Vec::new();
     for ((b, kx, ky), _) in cells {
-        let mut bits = 0u64;
-        for db in -1..=1 {
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    if let Some(v) = votes.get(&(b + db, kx + dx, ky + dy)) {
-                        bits |= v;
-                    }
-                }
-            }
-        }
-        if weight_of(bits) < 0.25 * window.total {
-            continue;
-        }
         // history_T_window about the centroid: p -> c + t + R (p - c).
         let rotate = Similarity2 {
             scale: 1.0,
@@ -361,4 +341,144 @@ pub fn register(
         best.margin = best_score / rival_score.max(f64::MIN_POSITIVE);
     }
     Some(best)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Grid step of the synthetic paths (units are arbitrary: the method is
+    /// scale-free).
+    const STEP: f64 = 0.5;
+
+    /// Points every `STEP` along the polyline through `corners`.
+    fn road(corners: &[(f64, f64)]) -> Vec<Vector2<f64>> {
+        let mut out = Vec::new();
+        for w in corners.windows(2) {
+            let (a, b) = (Vector2::new(w[0].0, w[0].1), Vector2::new(w[1].0, w[1].1));
+            let n = ((b - a).norm() / STEP).round() as usize;
+            out.extend((0..n).map(|k| a + (b - a) * (k as f64 / n as f64)));
+        }
+        out
+    }
+
+    /// A quarter turn of `radius` from heading -y to heading +x about
+    /// `(radius, radius)`: down a cross street, right onto a road.
+    fn quarter_turn(radius: f64) -> Vec<Vector2<f64>> {
+        let n = (radius * std::f64::consts::FRAC_PI_2 / STEP).round() as usize;
+        (0..n)
+            .map(|k| {
+                let a = std::f64::consts::PI + std::f64::consts::FRAC_PI_2 * k as f64 / n as f64;
+                Vector2::new(radius + radius * a.cos(), radius + radius * a.sin())
+            })
+            .collect()
+    }
+
+    /// The history of `points` in order (arc length, curvature from the
+    /// turn of each step) and its spatial index.
+    fn history(points: &[Vector2<f64>]) -> (History, SpatialIndex) {
+        let mut h = History::default();
+        let mut s = 0.0;
+        for (i, p) in points.iter().enumerate() {
+            if i > 0 {
+                s += (p - points[i - 1]).norm();
+            }
+            let kappa = match (i.checked_sub(1), points.get(i + 1)) {
+                (Some(j), Some(next)) => {
+                    let (a, b) = (p - points[j], next - p);
+                    let turn = (a.x * b.y - a.y * b.x).atan2(a.dot(&b));
+                    turn / (0.5 * (a.norm() + b.norm())).max(f64::MIN_POSITIVE)
+                }
+                _ => 0.0,
+            };
+            h.xy.push([p.x as f32, p.y as f32]);
+            h.s.push(s);
+            h.curvature.push(kappa as f32);
+        }
+        let mut spatial = SpatialIndex::new(64.0 * STEP, 4);
+        spatial.update(&h);
+        (h, spatial)
+    }
+
+    /// `p` moved by the drift: rotated by `angle` about the origin, then
+    /// shifted by `shift`.
+    fn drifted(p: &Vector2<f64>, angle: f64, shift: Vector2<f64>) -> Vector2<f64> {
+        Similarity2 {
+            scale: 1.0,
+            angle,
+            translation: shift,
+        }
+        .apply(p)
+    }
+
+    /// A map of a road along x and a cross street along y driven before
+    /// (neither turning at the junction at the origin), then a far detour;
+    /// `later` follows, moved by the drift.
+    fn drive(later: &[Vector2<f64>], angle: f64, shift: Vector2<f64>) -> (History, SpatialIndex, [usize; 2]) {
+        let mut points = road(&[(-400.0, 0.0), (400.0, 0.0)]);
+        points.extend(road(&[(400.0, 2000.0), (0.0, 2000.0), (0.0, 400.0), (0.0, -400.0)]));
+        points.extend(road(&[(-2000.0, -2000.0), (-2000.0, 2000.0)]));
+        let g0 = points.len();
+        points.extend(later.iter().map(|p| drifted(p, angle, shift)));
+        let g1 = points.len() - 1;
+        let (h, spatial) = history(&points);
+        (h, spatial, [g0, g1])
+    }
+
+    fn bounds(h: &History, [g0, g1]: [usize; 2]) -> Bounds {
+        let length = h.s[g1] - h.s[g0];
+        Bounds {
+            radius: 0.25 * length + 40.0,
+            angle: 10f64.to_radians(),
+            exclude: length,
+            gap: 4.0 * STEP,
+        }
+    }
+
+    /// Distance of `p` from the map's two roads.
+    fn off_network(p: &Vector2<f64>) -> f64 {
+        p.x.abs().min(p.y.abs())
+    }
+
+    #[test]
+    fn a_drifted_turn_between_two_roads_is_placed_where_they_meet() {
+        // Down the cross street, a right turn at the junction, along the
+        // road: no earlier pass made this turn, so no single earlier pass
+        // matches the window beyond one of its legs.
+        let mut later = road(&[(0.0, 60.0), (0.0, 10.0)]);
+        later.extend(quarter_turn(10.0));
+        later.extend(road(&[(10.0, 0.0), (60.0, 0.0)]));
+        let (angle, shift) = (4f64.to_radians(), Vector2::new(25.0, -8.0));
+        let (h, spatial, range) = drive(&later, angle, shift);
+        let reg = register(&h, &spatial, range[0], range[1], &bounds(&h, range), &DriftPrior::default())
+            .expect("a placement");
+        let band = BAND_FRACTION * (h.s[range[1]] - h.s[range[0]]);
+        // Every window point back on the network, the junction back at the
+        // origin: the drift undone.
+        for g in range[0]..=range[1] {
+            let p = reg.sim.apply(&h.point(g));
+            assert!(off_network(&p) <= band, "{p:?} off the roads ({reg:?})");
+        }
+        let junction = drifted(&Vector2::new(5.0, 5.0), angle, shift);
+        assert!((reg.sim.apply(&junction) - Vector2::new(5.0, 5.0)).norm() <= 2.0 * band, "{reg:?}");
+        assert!(reg.support > 0.9 && reg.margin >= 1.5, "{reg:?}");
+    }
+
+    #[test]
+    fn a_drifted_straight_slides_along_its_road_and_has_no_margin() {
+        let later = road(&[(-120.0, 0.0), (-20.0, 0.0)]);
+        let (h, spatial, range) = drive(&later, 2f64.to_radians(), Vector2::new(30.0, 6.0));
+        let reg = register(&h, &spatial, range[0], range[1], &bounds(&h, range), &DriftPrior::default())
+            .expect("a placement");
+        // On the road, but any slide along it fits as well.
+        assert!(reg.support > 0.9, "{reg:?}");
+        assert!(reg.margin < 1.2, "{reg:?}");
+    }
+
+    #[test]
+    fn no_map_in_reach_gives_no_placement() {
+        let later = road(&[(0.0, 60.0), (0.0, 10.0), (60.0, 10.0)]);
+        let (h, spatial, range) = drive(&later, 0.0, Vector2::new(900.0, 900.0));
+        assert!(register(&h, &spatial, range[0], range[1], &bounds(&h, range), &DriftPrior::default()).is_none());
+    }
 }
