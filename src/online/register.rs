@@ -107,7 +107,10 @@ struct Map {
 
 impl Map {
     fn key(&self, p: &Vector2<f64>) -> (i32, i32) {
-        ((p.x / self.cell).floor() as i32, (p.y / self.cell).floor() as i32)
+        (
+            (p.x / self.cell).floor() as i32,
+            (p.y / self.cell).floor() as i32,
+        )
     }
 
     /// The nearest sample within one cell of `p`.
@@ -138,7 +141,11 @@ struct Window {
 impl Window {
     /// The turning-weighted share of points within the map's cell of a
     /// sample under `sim`, and the pairs `(map, window)` that are.
-    fn support(&self, map: &Map, sim: &Similarity2) -> (f64, Vec<(Vector2<f64>, Vector2<f64>)>, Vec<f64>) {
+    fn support(
+        &self,
+        map: &Map,
+        sim: &Similarity2,
+    ) -> (f64, Vec<(Vector2<f64>, Vector2<f64>)>, Vec<f64>) {
         let (mut support, mut pairs, mut w) = (0.0, Vec::new(), Vec::new());
         for ((p, _), wi) in self.points.iter().zip(&self.weights) {
             if let Some(j) = map.nearest(&sim.apply(p)) {
@@ -414,9 +421,18 @@ mod tests {
     /// A map of a road along x and a cross street along y driven before
     /// (neither turning at the junction at the origin), then a far detour;
     /// `later` follows, moved by the drift.
-    fn drive(later: &[Vector2<f64>], angle: f64, shift: Vector2<f64>) -> (History, SpatialIndex, [usize; 2]) {
+    fn drive(
+        later: &[Vector2<f64>],
+        angle: f64,
+        shift: Vector2<f64>,
+    ) -> (History, SpatialIndex, [usize; 2]) {
         let mut points = road(&[(-400.0, 0.0), (400.0, 0.0)]);
-        points.extend(road(&[(400.0, 2000.0), (0.0, 2000.0), (0.0, 400.0), (0.0, -400.0)]));
+        points.extend(road(&[
+            (400.0, 2000.0),
+            (0.0, 2000.0),
+            (0.0, 400.0),
+            (0.0, -400.0),
+        ]));
         points.extend(road(&[(-2000.0, -2000.0), (-2000.0, 2000.0)]));
         let g0 = points.len();
         points.extend(later.iter().map(|p| drifted(p, angle, shift)));
@@ -450,8 +466,15 @@ mod tests {
         later.extend(road(&[(10.0, 0.0), (60.0, 0.0)]));
         let (angle, shift) = (4f64.to_radians(), Vector2::new(25.0, -8.0));
         let (h, spatial, range) = drive(&later, angle, shift);
-        let reg = register(&h, &spatial, range[0], range[1], &bounds(&h, range), &DriftPrior::default())
-            .expect("a placement");
+        let reg = register(
+            &h,
+            &spatial,
+            range[0],
+            range[1],
+            &bounds(&h, range),
+            &DriftPrior::default(),
+        )
+        .expect("a placement");
         let band = BAND_FRACTION * (h.s[range[1]] - h.s[range[0]]);
         // Every window point back on the network, the junction back at the
         // origin: the drift undone.
@@ -460,7 +483,10 @@ mod tests {
             assert!(off_network(&p) <= band, "{p:?} off the roads ({reg:?})");
         }
         let junction = drifted(&Vector2::new(5.0, 5.0), angle, shift);
-        assert!((reg.sim.apply(&junction) - Vector2::new(5.0, 5.0)).norm() <= 2.0 * band, "{reg:?}");
+        assert!(
+            (reg.sim.apply(&junction) - Vector2::new(5.0, 5.0)).norm() <= 2.0 * band,
+            "{reg:?}"
+        );
         assert!(reg.support > 0.9 && reg.margin >= 1.5, "{reg:?}");
     }
 
@@ -468,8 +494,15 @@ mod tests {
     fn a_drifted_straight_slides_along_its_road_and_has_no_margin() {
         let later = road(&[(-120.0, 0.0), (-20.0, 0.0)]);
         let (h, spatial, range) = drive(&later, 2f64.to_radians(), Vector2::new(30.0, 6.0));
-        let reg = register(&h, &spatial, range[0], range[1], &bounds(&h, range), &DriftPrior::default())
-            .expect("a placement");
+        let reg = register(
+            &h,
+            &spatial,
+            range[0],
+            range[1],
+            &bounds(&h, range),
+            &DriftPrior::default(),
+        )
+        .expect("a placement");
         // On the road, but any slide along it fits as well.
         assert!(reg.support > 0.9, "{reg:?}");
         assert!(reg.margin < 1.2, "{reg:?}");
@@ -479,6 +512,14 @@ mod tests {
     fn no_map_in_reach_gives_no_placement() {
         let later = road(&[(0.0, 60.0), (0.0, 10.0), (60.0, 10.0)]);
         let (h, spatial, range) = drive(&later, 0.0, Vector2::new(900.0, 900.0));
-        assert!(register(&h, &spatial, range[0], range[1], &bounds(&h, range), &DriftPrior::default()).is_none());
+        assert!(register(
+            &h,
+            &spatial,
+            range[0],
+            range[1],
+            &bounds(&h, range),
+            &DriftPrior::default()
+        )
+        .is_none());
     }
 }

@@ -533,7 +533,9 @@ fn register_newest(
     let xy = qw.path.points(false);
     let local = [g0.checked_sub(qw.grid0)?, g1.checked_sub(qw.grid0)?];
     let pc = &config.pipeline;
-    let v = verify::verify_seeded(&tw.path, &qw.path, &xy, local, placed.sim, false, pc, &allowed)?;
+    let v = verify::verify_seeded(
+        &tw.path, &qw.path, &xy, local, placed.sim, false, pc, &allowed,
+    )?;
     finish(h, &tw, &qw, &v, frame, config, Source::Network)
 }
 
