@@ -138,30 +138,40 @@ struct Window {
     total: f64,
 }
 
+/// The window points a placement lays on the map.
+#[derive(Default)]
+struct OnMap {
+    /// Their share of the window's weight.
+    support: f64,
+    /// `(map sample, window point)`.
+    pairs: Vec<(Vector2<f64>, Vector2<f64>)>,
+    /// Their weights.
+    weights: Vec<f64>,
+}
+
 impl Window {
     /// The turning-weighted share of points within the map's cell of a
     /// sample under `sim`, and the pairs `(map, window)` that are.
-    fn support(
-        &self,
-        map: &Map,
-        sim: &Similarity2,
-    ) -> (f64, Vec<(Vector2<f64>, Vector2<f64>)>, Vec<f64>) {
-        let (mut support, mut pairs, mut w) = (0.0, Vec::new(), Vec::new());
+    fn support(&self, map: &Map, sim: &Similarity2) -> OnMap {
+        let mut on = OnMap::default();
         for ((p, _), wi) in self.points.iter().zip(&self.weights) {
             if let Some(j) = map.nearest(&sim.apply(p)) {
-                support += wi;
-                pairs.push((map.samples[j].0, *p));
-                w.push(*wi);
+                on.support += wi;
+                on.pairs.push((map.samples[j].0, *p));
+                on.weights.push(*wi);
             }
         }
-        (support / self.total, pairs, w)
+        on.support /= self.total;
+        on
     }
 
     /// `rounds` rigid refits of `sim` on the map (a free scale would shrink
     /// the window onto any dense part of the map), and the support.
     fn refine(&self, map: &Map, mut sim: Similarity2, rounds: usize) -> (Similarity2, f64) {
         for _ in 0..rounds {
-            let (_, pairs, w) = self.support(map, &sim);
+            let OnMap {
+                pairs, weights: w, ..
+            } = self.support(map, &sim);
             let Some(fit) = Similarity2::fit(&pairs, Some(&w)).filter(|_| pairs.len() >= 3) else {
                 break;
             };
@@ -181,7 +191,7 @@ impl Window {
                 ..rotate
             };
         }
-        (sim, self.support(map, &sim).0)
+        (sim, self.support(map, &sim).support)
     }
 }
 
