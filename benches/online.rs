@@ -17,6 +17,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::Vector3;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::frontend::{Frontend, Outbox};
+use turnprint::online::register::{register, Bounds};
 use turnprint::online::search::{verify_all, Frame};
 use turnprint::online::synthetic::CityDrive;
 use turnprint::online::worker::{Message, WorkerState};
@@ -151,6 +152,26 @@ fn match_segment_on(c: &mut Criterion, name: &str, points: &[Vector3<f64>]) {
             let shape = state.searcher.shape_candidates(&state.history, &config);
             verify_all(&state.history, &frame, &shape, None, None, &config)
         })
+    });
+    // The network registration of the newest window at its widest reach:
+    // as far from its start as KITTI 00's last revisit (3 km).
+    let (h, spatial) = (
+        &state.history,
+        state.searcher.spatial.as_ref().expect("indexed"),
+    );
+    let prior = config.pipeline.drift_prior.expect("loops prior");
+    let g1 = h.xy.len() - 1;
+    let g0 = g1 - 4 * config.probe_every;
+    let length = h.s[g1] - h.s[g0];
+    let ratio = (3000.0 / length).sqrt();
+    let bounds = Bounds {
+        radius: 0.25 * length + 1.5 * config.drift_radius() * 3000.0,
+        angle: 2.0 * (prior.heading_floor + prior.heading * ratio),
+        exclude: length,
+        gap: spatial.every() as f64 * frame.step,
+    };
+    g.bench_function(format!("register_window_100k_{name}"), |b| {
+        b.iter(|| register(h, spatial, g0, g1, &bounds, &prior))
     });
     g.finish();
 }
