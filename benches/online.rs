@@ -150,7 +150,7 @@ fn match_segment_on(c: &mut Criterion, name: &str, points: &[Vector3<f64>]) {
         b.iter(|| {
             state.searcher.add_piece(&state.history, k, keep);
             let shape = state.searcher.shape_candidates(&state.history, &config);
-            verify_all(&state.history, &frame, &shape, None, None, &config)
+            verify_all(&state.history, &frame, &shape, None, &config)
         })
     });
     // The network registration of the newest window at its widest reach:

@@ -309,8 +309,7 @@ pub fn verify_all(
     h: &History,
     frame: &Frame,
     shape: &[Candidate],
-    seed: Option<ProximitySeed>,
-    spatial: Option<&SpatialIndex>,
+    seed: Option<&ProximitySeed>,
     config: &OnlineConfig,
 ) -> Vec<Found> {
     let pc = &config.pipeline;
@@ -405,7 +404,7 @@ pub fn verify_all(
             found.extend(finish(h, &tw, &qw, &v, frame, config, Source::Shape));
         }
     }
-    if let Some(seed) = &seed {
+    if let Some(seed) = seed {
         let (range, target, start) = (seed.query, seed.target, seed.start);
         let room = range[1] - range[0];
         // A drifted seed must still be able to reach the cut under the
@@ -450,13 +449,6 @@ pub fn verify_all(
                 found.extend(finish(h, &tw, &qw, &v, frame, config, source));
             }
         }
-        // Where the seed found a road but no candidate, the newest stretch
-        // placed on the whole network (the drifting map's search).
-        if let Some(spatial) = spatial.filter(|_| config.drift_radius() > 0.0) {
-            if !found.iter().any(|f| emitted(f, config, frame.step)) {
-                found.extend(register_newest(h, spatial, frame, seed, config));
-            }
-        }
     }
     found.retain(|f| emitted(f, config, frame.step));
     rank(found, config.top_k, f64::NEG_INFINITY, Duplicates::Place)
@@ -478,9 +470,9 @@ const REGISTER_MIN_TURNING: f64 = 1.0;
 const REGISTER_MARGIN: f64 = 1.2;
 
 /// The newest stretch registered onto the map's road network
-/// ([`register`]) where the probe's seed found a road but no candidate:
-/// verified from the registered placement.
-fn register_newest(
+/// ([`register`]), for a probe whose seed found a road but no candidate:
+/// verified from the registered placement, emitted as the drift probe's.
+pub fn register_newest(
     h: &History,
     spatial: &SpatialIndex,
     frame: &Frame,

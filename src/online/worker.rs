@@ -20,7 +20,7 @@ use serde::Serialize;
 use super::events::{CandidateEvent, KeyframePair};
 use super::frontend::Outbox;
 use super::history::History;
-use super::search::{proximity_seed, verify_all, Frame, Searcher};
+use super::search::{proximity_seed, register_newest, verify_all, Frame, Searcher};
 use super::OnlineConfig;
 
 /// What to do when the worker's queue is full.
@@ -101,7 +101,15 @@ pub struct WorkerState {
     pub stats: WorkerStats,
     next_id: u64,
     config: OnlineConfig,
+    /// Track sample the newest network registration ended at.
+    last_registered: Option<usize>,
 }
+
+/// Probe periods between two network registrations at least: a segment's
+/// end and a periodic probe can come a few samples apart, and their windows
+/// would be placed twice. (Every probe: one strong-drift event of 44 more,
+/// 10 % more time in the worker; every second period: one fewer.)
+const REGISTER_EVERY: usize = 1;
 
 impl WorkerState {
     /// An empty worker state.
@@ -112,6 +120,7 @@ impl WorkerState {
             stats: WorkerStats::default(),
             next_id: 1,
             config,
+            last_registered: None,
         }
     }
 
@@ -217,8 +226,24 @@ impl WorkerState {
             ),
             _ => None,
         };
-        let spatial = self.searcher.spatial.as_ref();
-        let found = verify_all(h, frame, &shape, seed, spatial, &self.config);
+        let mut found = verify_all(h, frame, &shape, seed.as_ref(), &self.config);
+        // Where the seed found a road but nothing was emitted, the newest
+        // stretch placed on the whole network (a drifting map's search), at
+        // most once every `REGISTER_EVERY` probe periods.
+        if let (true, Some(seed), Some(spatial)) = (
+            found.is_empty() && self.config.drift_radius() > 0.0,
+            &seed,
+            &self.searcher.spatial,
+        ) {
+            let end = seed.query[1];
+            if self
+                .last_registered
+                .is_none_or(|last| end >= last + REGISTER_EVERY * self.config.probe_every)
+            {
+                self.last_registered = Some(end);
+                found.extend(register_newest(h, spatial, frame, seed, &self.config));
+            }
+        }
         let mut events = Vec::new();
         for f in found {
             let hy = f.hypothesis;
