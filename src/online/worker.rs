@@ -107,8 +107,8 @@ pub struct WorkerState {
 
 /// Probe periods between two network registrations at least: a segment's
 /// end and a periodic probe can come a few samples apart, and their windows
-/// would be placed twice. (Every probe: one strong-drift event of 44 more,
-/// 10 % more time in the worker; every second period: one fewer.)
+/// would be placed twice. (At every probe: 22 strong-drift events of 44
+/// instead of 21, the stream within noise; every second period: 20.)
 const REGISTER_EVERY: usize = 1;
 
 impl WorkerState {
