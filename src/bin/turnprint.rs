@@ -124,8 +124,9 @@ enum Command {
         plot: Option<PathBuf>,
         /// Turn off the drifting-map probe (on by default: where nothing is
         /// near, it probes with a radius growing with the path in between,
-        /// for strongly drifting odometry; on a consistent map its
-        /// candidates are other roads: EVALUATION_ONLINE.md).
+        /// and places the newest stretch on the whole road network, for
+        /// strongly drifting odometry; on a consistent map its candidates
+        /// are other roads: EVALUATION_ONLINE.md).
         #[arg(long)]
         no_drift_probe: bool,
     },

@@ -9,6 +9,8 @@
 //! - [`history`]: the worker's compact history and its local windows;
 //! - [`correlator`]: per-block spectra and per-segment cached correlations;
 //! - [`search`]: queries, proximity probe, batch verification and scoring;
+//! - [`register`]: the newest stretch placed on the whole road network (a
+//!   drifting map's revisit entered and left by other roads);
 //! - [`worker`]: the thread, the bounded queue and its overflow policy;
 //! - [`events`]: candidates and verifier outcomes;
 //! - [`detector`]: the public type;
