@@ -10,7 +10,6 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint::eval::checks::{loop_correct, LoopClaim};
 use turnprint::eval::data::load_sequence;
 use turnprint::eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
@@ -29,17 +28,7 @@ fn correct_of(
         ..Default::default()
     };
     let out = common::emitted_candidates(points, config);
-    let correct = out
-        .iter()
-        .filter(|c| {
-            let claim = LoopClaim {
-                query: c.hypothesis.a_range,
-                matched: c.hypothesis.b_range,
-                score: c.hypothesis.score,
-            };
-            loop_correct(&claim, truth, 10.0)
-        })
-        .count();
+    let correct = out.iter().filter(|c| common::is_correct(c, truth)).count();
     (correct, out.len())
 }
 
@@ -105,12 +94,7 @@ fn a_slightly_drifted_revisit_grows_from_the_probe_fit() {
     let out = common::emitted_candidates(&drifted, OnlineConfig::default());
     let found = out.iter().any(|c| {
         let h = &c.hypothesis;
-        let claim = LoopClaim {
-            query: h.a_range,
-            matched: h.b_range,
-            score: h.score,
-        };
-        h.a_range[0] <= 1645 && h.a_range[1] >= 1553 && loop_correct(&claim, &truth, 10.0)
+        h.a_range[0] <= 1645 && h.a_range[1] >= 1553 && common::is_correct(c, &truth)
     });
     assert!(
         found,

@@ -8,7 +8,6 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint::eval::checks::{loop_correct, LoopClaim};
 use turnprint::eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{OnlineConfig, Source};
@@ -32,15 +31,10 @@ fn kitti00s_first_revisit_under_strong_drift_is_placed_on_the_network() {
     let out = common::emitted_candidates(&drifted[..1800], OnlineConfig::default());
     let placed = out.iter().find(|c| {
         let h = &c.hypothesis;
-        let claim = LoopClaim {
-            query: h.a_range,
-            matched: h.b_range,
-            score: h.score,
-        };
         c.source == Source::Network
             && h.a_range[0] <= 1645
             && h.a_range[1] >= 1553
-            && loop_correct(&claim, &truth, 10.0)
+            && common::is_correct(c, &truth)
     });
     assert!(
         placed.is_some(),

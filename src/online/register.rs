@@ -461,6 +461,12 @@ mod tests {
         }
     }
 
+    /// The registration of `range` within [`bounds`], default prior.
+    fn place(h: &History, spatial: &SpatialIndex, range: [usize; 2]) -> Option<Registration> {
+        let prior = DriftPrior::default();
+        register(h, spatial, range[0], range[1], &bounds(h, range), &prior)
+    }
+
     /// Distance of `p` from the map's two roads.
     fn off_network(p: &Vector2<f64>) -> f64 {
         p.x.abs().min(p.y.abs())
@@ -476,18 +482,10 @@ mod tests {
         later.extend(road(&[(10.0, 0.0), (60.0, 0.0)]));
         let (angle, shift) = (4f64.to_radians(), Vector2::new(25.0, -8.0));
         let (h, spatial, range) = drive(&later, angle, shift);
-        let reg = register(
-            &h,
-            &spatial,
-            range[0],
-            range[1],
-            &bounds(&h, range),
-            &DriftPrior::default(),
-        )
-        .expect("a placement");
+        let reg = place(&h, &spatial, range).expect("a placement");
         let band = BAND_FRACTION * (h.s[range[1]] - h.s[range[0]]);
-        // Every window point back on the network, the junction back at the
-        // origin: the drift undone.
+        // Every window point back on the network, and a point by the
+        // junction back where it was: the drift undone.
         for g in range[0]..=range[1] {
             let p = reg.sim.apply(&h.point(g));
             assert!(off_network(&p) <= band, "{p:?} off the roads ({reg:?})");
@@ -504,15 +502,7 @@ mod tests {
     fn a_drifted_straight_slides_along_its_road_and_has_no_margin() {
         let later = road(&[(-120.0, 0.0), (-20.0, 0.0)]);
         let (h, spatial, range) = drive(&later, 2f64.to_radians(), Vector2::new(30.0, 6.0));
-        let reg = register(
-            &h,
-            &spatial,
-            range[0],
-            range[1],
-            &bounds(&h, range),
-            &DriftPrior::default(),
-        )
-        .expect("a placement");
+        let reg = place(&h, &spatial, range).expect("a placement");
         // On the road, but any slide along it fits as well.
         assert!(reg.support > 0.9, "{reg:?}");
         assert!(reg.margin < 1.2, "{reg:?}");
@@ -522,14 +512,6 @@ mod tests {
     fn no_map_in_reach_gives_no_placement() {
         let later = road(&[(0.0, 60.0), (0.0, 10.0), (60.0, 10.0)]);
         let (h, spatial, range) = drive(&later, 0.0, Vector2::new(900.0, 900.0));
-        assert!(register(
-            &h,
-            &spatial,
-            range[0],
-            range[1],
-            &bounds(&h, range),
-            &DriftPrior::default()
-        )
-        .is_none());
+        assert!(place(&h, &spatial, range).is_none());
     }
 }

@@ -35,3 +35,17 @@ pub fn output_with_stdin(mut command: Command, input: Vec<u8>) -> Output {
     std::thread::spawn(move || stdin.write_all(&input));
     child.wait_with_output().expect("the command ends")
 }
+
+/// Whether candidate `c` is correct against the ground-truth positions
+/// `truth` (`eval::checks::loop_correct`, 10 m).
+#[cfg(feature = "eval")]
+pub fn is_correct(c: &CandidateEvent, truth: &[Vector3<f64>]) -> bool {
+    use turnprint::eval::checks::{loop_correct, LoopClaim};
+    let h = &c.hypothesis;
+    let claim = LoopClaim {
+        query: h.a_range,
+        matched: h.b_range,
+        score: h.score,
+    };
+    loop_correct(&claim, truth, 10.0)
+}
