@@ -6,7 +6,8 @@
 //! place a straight that the later pass enters and leaves by other roads
 //! than the earlier pass did: along the common straight every slide fits,
 //! and the turns at its ends lie on *other* earlier passes (KITTI 00 poses
-//! 1553-1645 under strong drift: every pairwise candidate slid 40-55 m).
+//! 1553-1645 under strong drift, seed 1: the pairwise candidates slid
+//! 40-55 m).
 //! Here each window point votes, with every earlier map sample of a
 //! compatible road direction, for the rotation and translation that would
 //! lay it there (a Hough transform over the similarity); the placement most
@@ -32,7 +33,7 @@ const POINTS: usize = 48;
 /// Rotation bin of the vote.
 const ANGLE_BIN: f64 = 3.0 * std::f64::consts::PI / 180.0;
 /// A window point lies on the map within this fraction of the window's
-/// length (2.4 m on a 96 m window of KITTI): the band of a road's lanes.
+/// length (about 2 m on the 80 m windows of KITTI): a road's lanes.
 pub const BAND_FRACTION: f64 = 0.025;
 /// One window point in this many votes.
 const VOTE_EVERY: usize = 2;

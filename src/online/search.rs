@@ -455,9 +455,9 @@ pub fn verify_all(
 }
 
 /// Probe periods of track samples the network registration places: about
-/// 100 m on KITTI, long enough to reach the junctions at both ends of a
-/// block (3 periods: one strong-drift event fewer of 44; 6: the same events,
-/// more false candidates).
+/// 100 poses, 80 m, on KITTI, a junction's turn with the straights on both
+/// sides of it (3 periods: one strong-drift event fewer of 44; 6: the same
+/// events, more false candidates).
 const REGISTER_PERIODS: usize = 4;
 /// Least turning (radians) of a window worth registering: one that barely
 /// turns slides along its road and nothing pins it (1 rad, about a
