@@ -531,6 +531,7 @@ pub fn register_newest(
         &tw.path, &qw.path, &xy, local, placed.sim, false, pc, &allowed,
     )?;
     finish(h, &tw, &qw, &v, frame, config, Source::Network)
+        .filter(|f| emitted(f, config, frame.step))
 }
 
 /// Whether a candidate is emitted: its score reaches the cut of its
