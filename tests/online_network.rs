@@ -16,7 +16,7 @@ mod common;
 
 /// KITTI 00 under the strong drift model (seed 3). At its first revisit
 /// (frames 1553-1645 over 112-207) the later pass comes down a cross
-/// street, drives 90 m of a road the earlier pass drove straight through,
+/// street, drives 70 m of a road the earlier pass drove straight through,
 /// and leaves by another cross street; the drift has moved it about 60 m.
 /// Pairwise, any slide along the common straight fits (under seed 1 the
 /// candidates slid 40-55 m) and the event was missed; on the whole network
