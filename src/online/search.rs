@@ -51,6 +51,66 @@ pub struct Frame {
     pub poses: usize,
 }
 
+impl Frame {
+    /// The history's track samples `[g0, g1]` (clamped) as a prepared
+    /// path in this frame.
+    pub fn window(&self, h: &History, g0: usize, g1: usize, dk: f64) -> Option<Window> {
+        h.window(
+            g0,
+            g1,
+            &self.plane,
+            self.step,
+            self.bandwidth,
+            dk,
+            self.poses,
+        )
+    }
+}
+
+/// Whether track sample `g` of the query window `qw` and fractional track
+/// sample `v` of the target window `tw` lie more than `length` apart along
+/// the path: the query's own neighbourhood is no revisit.
+fn apart<'a>(
+    h: &'a History,
+    qw: &'a Window,
+    tw: &'a Window,
+    length: f64,
+) -> impl Fn(usize, f64) -> bool + 'a {
+    move |g, v| {
+        let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
+        (h.s[g + qw.grid0] - st).abs() > length
+    }
+}
+
+/// Grows the history's track samples `query` (inside the window `q_range`)
+/// against the window `t_range` from each of `starts` (`history_T_query`:
+/// both windows are one map) and scores the first that verifies.
+#[allow(clippy::too_many_arguments)]
+fn grow_seeded(
+    h: &History,
+    frame: &Frame,
+    config: &OnlineConfig,
+    query: [usize; 2],
+    q_range: [usize; 2],
+    t_range: [usize; 2],
+    starts: impl IntoIterator<Item = Similarity2>,
+    source: Source,
+) -> Option<Found> {
+    let pc = &config.pipeline;
+    let qw = frame.window(h, q_range[0], q_range[1], pc.signature.dk)?;
+    let tw = frame.window(h, t_range[0], t_range[1], pc.signature.dk)?;
+    let allowed = apart(h, &qw, &tw, h.s[query[1]] - h.s[query[0]]);
+    let xy = qw.path.points(false);
+    let local = [
+        query[0].checked_sub(qw.grid0)?,
+        query[1].checked_sub(qw.grid0)?,
+    ];
+    let v = starts.into_iter().find_map(|start| {
+        verify::verify_seeded(&tw.path, &qw.path, &xy, local, start, false, pc, &allowed)
+    })?;
+    finish(h, &tw, &qw, &v, frame, config, source)
+}
+
 /// A verified, scored candidate of one query.
 #[derive(Debug, Clone)]
 pub struct Found {
@@ -315,17 +375,7 @@ pub fn verify_all(
     let pc = &config.pipeline;
     let dk = pc.signature.dk;
     let mut found = Vec::new();
-    let window = |g0: usize, g1: usize| {
-        h.window(
-            g0,
-            g1,
-            &frame.plane,
-            frame.step,
-            frame.bandwidth,
-            dk,
-            frame.poses,
-        )
-    };
+    let window = |g0: usize, g1: usize| frame.window(h, g0, g1, dk);
     for cand in shape {
         let (q0, q1) = (cand.query[0], cand.query[1]);
         let t = [cand.target_of(q0), cand.target_of(q1)];
@@ -389,11 +439,7 @@ pub fn verify_all(
         if local.query[1] >= qw.path.signature.len() {
             continue;
         }
-        let allowed = |g: usize, v: f64| {
-            let sq = h.s[g + qw.grid0];
-            let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
-            (sq - st).abs() > seed_len
-        };
+        let allowed = apart(h, &qw, &tw, seed_len);
         let xy = qw.path.points(false);
         // Most shape candidates are look-alikes far from identity whose
         // drift prior alone keeps them below the cut: known from the RANSAC
@@ -422,32 +468,24 @@ pub fn verify_all(
                 2.0,
                 config.drift_min_score,
             );
-        if let (true, Some(qw), Some(tw)) = (
-            may_pass,
-            window(
-                range[0].saturating_sub(room),
-                (range[1] + room).min(h.xy.len() - 1),
-            ),
-            window(target.saturating_sub(2 * room), target + 2 * room),
-        ) {
-            let allowed = |g: usize, v: f64| {
-                let sq = h.s[g + qw.grid0];
-                let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
-                (sq - st).abs() > seed_len
+        if may_pass {
+            let source = match seed.drifted {
+                true => Source::DriftProbe,
+                false => Source::Proximity,
             };
-            let xy = qw.path.points(false);
-            let local = [range[0] - qw.grid0, range[1] - qw.grid0];
-            // The two windows are one map: the starts are in the history's frame.
-            let verified = seed.starts(seed_len).find_map(|start| {
-                verify::verify_seeded(&tw.path, &qw.path, &xy, local, start, false, pc, &allowed)
-            });
-            if let Some(v) = verified {
-                let source = match seed.drifted {
-                    true => Source::DriftProbe,
-                    false => Source::Proximity,
-                };
-                found.extend(finish(h, &tw, &qw, &v, frame, config, source));
-            }
+            found.extend(grow_seeded(
+                h,
+                frame,
+                config,
+                range,
+                [
+                    range[0].saturating_sub(room),
+                    (range[1] + room).min(h.xy.len() - 1),
+                ],
+                [target.saturating_sub(2 * room), target + 2 * room],
+                seed.starts(seed_len),
+                source,
+            ));
         }
     }
     found.retain(|f| emitted(f, config, frame.step));
@@ -505,33 +543,19 @@ pub fn register_newest(
     if placed.margin < REGISTER_MARGIN {
         return None;
     }
-    let window = |a: usize, b: usize| {
-        h.window(
-            a,
-            b,
-            &frame.plane,
-            frame.step,
-            frame.bandwidth,
-            config.pipeline.signature.dk,
-            frame.poses,
-        )
-    };
     let room = g1 - g0;
-    let qw = window(g0, g1)?;
-    let tw = window(placed.target.saturating_sub(room), placed.target + room)?;
-    let allowed = |g: usize, v: f64| {
-        let sq = h.s[g + qw.grid0];
-        let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
-        (sq - st).abs() > length
-    };
-    let xy = qw.path.points(false);
-    let local = [g0.checked_sub(qw.grid0)?, g1.checked_sub(qw.grid0)?];
-    let pc = &config.pipeline;
-    let v = verify::verify_seeded(
-        &tw.path, &qw.path, &xy, local, placed.sim, false, pc, &allowed,
-    )?;
-    finish(h, &tw, &qw, &v, frame, config, Source::Network)
-        .filter(|f| emitted(f, config, frame.step))
+    let t_range = [placed.target.saturating_sub(room), placed.target + room];
+    grow_seeded(
+        h,
+        frame,
+        config,
+        [g0, g1],
+        [g0, g1],
+        t_range,
+        [placed.sim],
+        Source::Network,
+    )
+    .filter(|f| emitted(f, config, frame.step))
 }
 
 /// Whether a candidate is emitted: its score reaches the cut of its
