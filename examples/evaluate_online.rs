@@ -121,7 +121,7 @@ fn main() {
         lat.sort_by(f64::total_cmp);
         // Ground truth in input index space.
         let g: Vec<Vector3<f64>> = frames.iter().map(|&f| gt_xyz[f]).collect();
-        let arc = arc_length(&g);
+        let arc = turnprint::eval::revisits::arc_lengths(&g);
         let events = revisit_events(&g, &frames, &arc);
         if show_events {
             eprintln!("events {seq} {events:?}");
@@ -244,14 +244,6 @@ fn main() {
 
 /// Road before an event that its certificate counts as seen (m).
 const APPROACH_M: f64 = 100.0;
-
-fn arc_length(g: &[Vector3<f64>]) -> Vec<f64> {
-    let mut arc = vec![0.0; g.len()];
-    for i in 1..g.len() {
-        arc[i] = arc[i - 1] + (g[i] - g[i - 1]).norm();
-    }
-    arc
-}
 
 /// Runs of revisit poses spanning at least 40 m (gaps under 20 poses joined).
 fn revisit_events(g: &[Vector3<f64>], frames: &[usize], arc: &[f64]) -> Vec<(usize, usize)> {

@@ -213,14 +213,16 @@ pub fn register(
     let band = BAND_FRACTION * length;
     // Window points, weighted by turning: the turns are what pin a window
     // along its roads.
-    let points: Vec<(Vector2<f64>, f64)> = (0..POINTS)
-        .map(|k| {
-            let g = g0 + k * (g1 - g0) / (POINTS - 1);
-            (h.point(g), heading(h, g))
-        })
+    let samples: Vec<usize> = (0..POINTS)
+        .map(|k| g0 + k * (g1 - g0) / (POINTS - 1))
         .collect();
-    let kappa: Vec<f64> = (0..POINTS)
-        .map(|k| (h.curvature[g0 + k * (g1 - g0) / (POINTS - 1)] as f64).abs())
+    let points: Vec<(Vector2<f64>, f64)> = samples
+        .iter()
+        .map(|&g| (h.point(g), heading(h, g)))
+        .collect();
+    let kappa: Vec<f64> = samples
+        .iter()
+        .map(|&g| (h.curvature[g] as f64).abs())
         .collect();
     // Relative to the window's mean curvature, but at least a radian of
     // turning over the window: the noise of a straight weighs nothing.
