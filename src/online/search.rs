@@ -138,6 +138,8 @@ pub struct Searcher {
     pub pieces: Vec<Piece>,
     /// Decimated positions for the proximity probe.
     pub spatial: Option<SpatialIndex>,
+    /// Track sample the newest network registration ended at.
+    pub last_registered: Option<usize>,
 }
 
 impl Searcher {
@@ -147,6 +149,7 @@ impl Searcher {
             correlator: BlockCorrelator::new(config.block_len),
             pieces: Vec::new(),
             spatial: None,
+            last_registered: None,
         }
     }
 
@@ -508,27 +511,41 @@ const REGISTER_MIN_TURNING: f64 = 1.0;
 /// margin at all, 279 of 320 placements on the strong-drift runs were
 /// wrong).
 const REGISTER_MARGIN: f64 = 1.2;
+/// Probe periods between two network registrations at least: a segment's
+/// end and a periodic probe can come a few samples apart, and their windows
+/// would be placed twice. (At every probe: 22 strong-drift events of 44
+/// instead of 21, the stream within noise; every second period: 20.)
+const REGISTER_EVERY: usize = 1;
 
 /// The newest stretch registered onto the map's road network
-/// ([`register`]), for a probe whose seed found a road but no candidate:
-/// verified from the registered placement, emitted as the drift probe's.
+/// ([`register`]), for a probe whose seed found a road but no candidate
+/// (with the drifting map's search on): verified from the registered
+/// placement, emitted as the drift probe's.
 pub fn register_newest(
     h: &History,
-    spatial: &SpatialIndex,
+    searcher: &mut Searcher,
     frame: &Frame,
     seed: &ProximitySeed,
     config: &OnlineConfig,
 ) -> Option<Found> {
     let prior = config.pipeline.drift_prior.as_ref()?;
+    let spatial = searcher.spatial.as_ref()?;
+    if config.drift_radius() <= 0.0 {
+        return None;
+    }
     let g1 = seed.query[1];
     let g0 = g1.checked_sub(REGISTER_PERIODS * config.probe_every)?;
     let length = h.s[g1] - h.s[g0];
     let turning: f64 = (g0..g1)
         .map(|g| (h.curvature[g] as f64).abs() * (h.s[g + 1] - h.s[g]))
         .sum();
-    if turning < REGISTER_MIN_TURNING || length <= 0.0 {
+    let recent = searcher
+        .last_registered
+        .is_some_and(|last| g1 < last + REGISTER_EVERY * config.probe_every);
+    if turning < REGISTER_MIN_TURNING || length <= 0.0 || recent {
         return None;
     }
+    searcher.last_registered = Some(g1);
     // The drift prior's reach at the seed's distance: 1.5 times its
     // position sigma, two of its heading sigmas.
     let between = (h.s[g0] - h.s[seed.target]).max(0.0);

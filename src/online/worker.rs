@@ -101,15 +101,7 @@ pub struct WorkerState {
     pub stats: WorkerStats,
     next_id: u64,
     config: OnlineConfig,
-    /// Track sample the newest network registration ended at.
-    last_registered: Option<usize>,
 }
-
-/// Probe periods between two network registrations at least: a segment's
-/// end and a periodic probe can come a few samples apart, and their windows
-/// would be placed twice. (At every probe: 22 strong-drift events of 44
-/// instead of 21, the stream within noise; every second period: 20.)
-const REGISTER_EVERY: usize = 1;
 
 impl WorkerState {
     /// An empty worker state.
@@ -120,7 +112,6 @@ impl WorkerState {
             stats: WorkerStats::default(),
             next_id: 1,
             config,
-            last_registered: None,
         }
     }
 
@@ -228,21 +219,15 @@ impl WorkerState {
         };
         let mut found = verify_all(h, frame, &shape, seed.as_ref(), &self.config);
         // Where the seed found a road but nothing was emitted, the newest
-        // stretch placed on the whole network (a drifting map's search), at
-        // most once every `REGISTER_EVERY` probe periods.
-        if let (true, Some(seed), Some(spatial)) = (
-            found.is_empty() && self.config.drift_radius() > 0.0,
-            &seed,
-            &self.searcher.spatial,
-        ) {
-            let end = seed.query[1];
-            if self
-                .last_registered
-                .is_none_or(|last| end >= last + REGISTER_EVERY * self.config.probe_every)
-            {
-                self.last_registered = Some(end);
-                found.extend(register_newest(h, spatial, frame, seed, &self.config));
-            }
+        // stretch placed on the whole network (a drifting map's search).
+        if let (true, Some(seed)) = (found.is_empty(), &seed) {
+            found.extend(register_newest(
+                h,
+                &mut self.searcher,
+                frame,
+                seed,
+                &self.config,
+            ));
         }
         let mut events = Vec::new();
         for f in found {
