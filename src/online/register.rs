@@ -77,6 +77,29 @@ pub struct Bounds {
     pub gap: f64,
 }
 
+impl Bounds {
+    /// The drift prior's reach for a window of `length` whose earlier part
+    /// may lie `between` back along the path: 1.5 times its position sigma
+    /// (`position` per unit of path, the drifting probe's rate) beyond a
+    /// quarter of the window, two of its heading sigmas. `gap` as the
+    /// field.
+    pub fn of_drift(
+        prior: &DriftPrior,
+        position: f64,
+        length: f64,
+        between: f64,
+        gap: f64,
+    ) -> Self {
+        let ratio = (between / length).sqrt();
+        Bounds {
+            radius: 0.25 * length + 1.5 * position * between,
+            angle: 2.0 * (prior.heading_floor + prior.heading * ratio),
+            exclude: length,
+            gap,
+        }
+    }
+}
+
 /// Direction of the track at sample `g` (central difference).
 fn heading(h: &History, g: usize) -> f64 {
     let last = h.xy.len() - 1;

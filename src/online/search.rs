@@ -546,16 +546,10 @@ pub fn register_newest(
         return None;
     }
     searcher.last_registered = Some(g1);
-    // The drift prior's reach at the seed's distance: 1.5 times its
-    // position sigma, two of its heading sigmas.
+    // The drift prior's reach at the seed's distance.
     let between = (h.s[g0] - h.s[seed.target]).max(0.0);
-    let ratio = (between / length).sqrt();
-    let bounds = register::Bounds {
-        radius: 0.25 * length + 1.5 * config.drift_radius() * between,
-        angle: 2.0 * (prior.heading_floor + prior.heading * ratio),
-        exclude: length,
-        gap: spatial.every() as f64 * frame.step,
-    };
+    let gap = spatial.every() as f64 * frame.step;
+    let bounds = register::Bounds::of_drift(prior, config.drift_radius(), length, between, gap);
     let placed = register::register(h, spatial, g0, g1, &bounds, prior)?;
     if placed.margin < REGISTER_MARGIN {
         return None;
