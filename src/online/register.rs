@@ -543,16 +543,21 @@ mod tests {
         p.x.abs().min(p.y.abs())
     }
 
-    #[test]
-    fn a_drifted_turn_between_two_roads_is_placed_where_they_meet() {
-        // Down the cross street, a right turn at the junction, along the
-        // road: no earlier pass made this turn, so no single earlier pass
-        // matches the window beyond one of its legs.
+    /// Down the cross street at x = 0, a right turn at the junction, along
+    /// the road.
+    fn turn_at_junction() -> Vec<Vector2<f64>> {
         let mut later = road(&[(0.0, 60.0), (0.0, 10.0)]);
         later.extend(quarter_turn(10.0));
         later.extend(road(&[(10.0, 0.0), (60.0, 0.0)]));
+        later
+    }
+
+    #[test]
+    fn a_drifted_turn_between_two_roads_is_placed_where_they_meet() {
+        // No earlier pass made this turn, so no single earlier pass
+        // matches the window beyond one of its legs.
         let (angle, shift) = (4f64.to_radians(), Vector2::new(25.0, -8.0));
-        let (h, spatial, range) = drive(&later, angle, shift);
+        let (h, spatial, range) = drive(&turn_at_junction(), angle, shift);
         let reg = place(&h, &spatial, range).expect("a placement");
         let band = BAND_FRACTION * (h.s[range[1]] - h.s[range[0]]);
         // Every window point back on the network, and a point by the
@@ -574,11 +579,8 @@ mod tests {
     /// the detector's 1.2 (undecided).
     #[test]
     fn a_look_alike_junction_in_reach_is_a_rival() {
-        let mut later = road(&[(0.0, 60.0), (0.0, 10.0)]);
-        later.extend(quarter_turn(10.0));
-        later.extend(road(&[(10.0, 0.0), (60.0, 0.0)]));
         let (angle, shift) = (2f64.to_radians(), Vector2::new(15.0, -4.0));
-        let (h, spatial, range) = drive_on(&[0.0, 40.0], &later, angle, shift);
+        let (h, spatial, range) = drive_on(&[0.0, 40.0], &turn_at_junction(), angle, shift);
         let reg = place(&h, &spatial, range).expect("a placement");
         assert!(reg.support > 0.9, "{reg:?}");
         assert!(reg.margin < 1.2, "{reg:?}");
