@@ -113,8 +113,9 @@ pub fn grow_and_refit(
         if !(tol > 0.0 && tol.is_finite()) {
             return result;
         }
+        let sim_at = sim.applier();
         let project = |g: usize, predicted: Option<(f64, f64)>| -> Option<Match> {
-            let p = sim.apply(&query_xy[g]);
+            let p = sim_at(&query_xy[g]);
             let proj = match predicted {
                 // Growth knows where along the target the point must land:
                 // only the segments within that arc window are looked at.

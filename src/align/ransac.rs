@@ -57,9 +57,10 @@ pub fn ransac_similarity(
         let Some(t) = Similarity2::from_two(&a0, &a1, &b0, &b1) else {
             continue;
         };
+        let apply_t = t.applier();
         let count = pairs
             .iter()
-            .filter(|(a, b)| (t.apply(b) - a).norm_squared() < t2)
+            .filter(|(a, b)| (apply_t(b) - a).norm_squared() < t2)
             .count();
         if best.as_ref().is_none_or(|(c, _)| count > *c) {
             best = Some((count, t));
@@ -69,9 +70,10 @@ pub fn ransac_similarity(
     if count < 3 {
         return None;
     }
+    let apply_t = t.applier();
     let inliers: Vec<bool> = pairs
         .iter()
-        .map(|(a, b)| (t.apply(b) - a).norm_squared() < t2)
+        .map(|(a, b)| (apply_t(b) - a).norm_squared() < t2)
         .collect();
     let kept: Vec<_> = pairs
         .iter()

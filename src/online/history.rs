@@ -61,7 +61,9 @@ impl History {
     /// Track position at a fractional sample index (linear in between).
     pub fn point_at(&self, g: f64) -> Vector2<f64> {
         let last = self.xy.len().saturating_sub(1);
-        let i = (g.floor().max(0.0) as usize).min(last.saturating_sub(1));
+        // Truncation saturates below 0 (and NaN) to 0: the clamped floor
+        // without a libm call.
+        let i = (g as usize).min(last.saturating_sub(1));
         let f = (g - i as f64).clamp(0.0, 1.0);
         self.point(i) * (1.0 - f) + self.point((i + 1).min(last)) * f
     }

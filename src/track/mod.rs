@@ -127,7 +127,9 @@ impl Track {
             return 0.0;
         }
         let at = at.clamp(0.0, (n - 1) as f64);
-        let i = (at.floor() as usize).min(n.saturating_sub(2));
+        // Non-negative: truncation is the floor, without the libm call
+        // `floor` is on baseline x86-64 (a hot path of growth).
+        let i = (at as usize).min(n.saturating_sub(2));
         let f = at - i as f64;
         if i + 1 < n {
             values[i] * (1.0 - f) + values[i + 1] * f
@@ -147,7 +149,7 @@ impl Track {
 pub fn lerp_point(xy: &[Vector2<f64>], at: f64) -> Vector2<f64> {
     let n = xy.len();
     let at = at.clamp(0.0, (n - 1) as f64);
-    let i = (at.floor() as usize).min(n.saturating_sub(2));
+    let i = (at as usize).min(n.saturating_sub(2)); // (the floor: as above)
     let f = at - i as f64;
     xy[i] * (1.0 - f) + xy[(i + 1).min(n - 1)] * f
 }
