@@ -363,9 +363,13 @@ pub fn register(
         // The map sample under the window point nearest the middle that
         // lies on the map (a window entering the map from a new road has
         // its middle off it).
-        let target = (0..POINTS)
-            .map(|k| POINTS / 2 + k / 2 - (k % 2) * k)
-            .find_map(|k| map.nearest(&sim.apply(&window.points[k.min(POINTS - 1)].0)))
+        let to_map = sim.applier();
+        let mut outward = (0..POINTS).map(|k| match k % 2 {
+            0 => POINTS / 2 + k / 2,
+            _ => POINTS / 2 - (k + 1) / 2,
+        });
+        let target = outward
+            .find_map(|k| map.nearest(&to_map(&window.points[k].0)))
             .map(|j| map.samples[j].2 as usize)?;
         let mut offsets: Vec<f64> = window
             .points
