@@ -366,7 +366,7 @@ pub fn register(
         let to_map = sim.applier();
         let mut outward = (0..POINTS).map(|k| match k % 2 {
             0 => POINTS / 2 + k / 2,
-            _ => POINTS / 2 - (k + 1) / 2,
+            _ => POINTS / 2 - k.div_ceil(2),
         });
         let target = outward
             .find_map(|k| map.nearest(&to_map(&window.points[k].0)))
