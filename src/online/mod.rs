@@ -8,9 +8,11 @@
 //! - [`guard`]: out-of-order, duplicate and non-finite poses, jumps;
 //! - [`history`]: the worker's compact history and its local windows;
 //! - [`correlator`]: per-block spectra and per-segment cached correlations;
-//! - [`search`]: queries, proximity probe, batch verification and scoring;
+//! - [`search`]: queries, batch verification, emission and scoring;
+//! - [`probe`]: the proximity probe (nearest earlier positions);
 //! - [`register`]: the newest stretch placed on the whole road network (a
 //!   drifting map's revisit entered and left by other roads);
+//! - [`network`]: when the detector registers, and the candidate it grows;
 //! - [`worker`]: the thread, the bounded queue and its overflow policy;
 //! - [`events`]: candidates and verifier outcomes;
 //! - [`detector`]: the public type;
@@ -25,6 +27,8 @@ pub mod events;
 pub mod frontend;
 pub mod guard;
 pub mod history;
+pub mod network;
+pub mod probe;
 pub mod register;
 pub mod scan;
 pub mod search;

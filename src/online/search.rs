@@ -1,22 +1,22 @@
 //! What a newly finalised segment triggers: the queries of its last
 //! `N = min..=max` segments against the history (both directions), the
-//! proximity probe (nearest earlier position), the batch verification of
-//! the strongest of both, the loop score with the drift prior, and the top
-//! k as hypotheses.
+//! batch verification of the strongest of them and of the proximity
+//! probe's seed ([`super::probe`]), the loop score with the drift prior,
+//! and the top k as hypotheses (the network registration's candidate is
+//! grown and emitted the same way: [`super::network`]).
 
 use std::collections::HashMap;
 
 use super::correlator::{BlockCorrelator, Piece};
 use super::events::Source;
 use super::history::{History, SpatialIndex, Window};
-use super::register;
 use super::scan;
 use super::{Exclusion, OnlineConfig};
 use nalgebra::Vector2;
 
 use crate::geometry::{Plane, Similarity2};
 use crate::matching::{Candidate, Orientation};
-use crate::pipeline::proximity::{radius, seed_of, Near, ProximitySeed, PROBES};
+use crate::pipeline::proximity::ProximitySeed;
 use crate::pipeline::rank::{rank, Duplicates};
 use crate::pipeline::{verify, Verified};
 use crate::score::{loop_score, score};
@@ -86,7 +86,7 @@ fn apart<'a>(
 /// against the window `t_range` from each of `starts` (`history_T_query`:
 /// both windows are one map) and scores the first that verifies.
 #[allow(clippy::too_many_arguments)]
-fn grow_seeded(
+pub(super) fn grow_seeded(
     h: &History,
     frame: &Frame,
     config: &OnlineConfig,
@@ -284,89 +284,6 @@ impl Searcher {
     }
 }
 
-/// Proximity seed of the newest two segments (as the batch proximity
-/// seeds), or, for a periodic probe (`segments == false`), of the newest
-/// `window` track samples.
-pub fn proximity_seed(
-    h: &History,
-    spatial: &SpatialIndex,
-    segments: bool,
-    window: usize,
-    drift: f64,
-) -> Option<ProximitySeed> {
-    let last = h.xy.len().checked_sub(1)?;
-    let nb = h.bounds.len();
-    let g0 = if segments && nb >= 3 {
-        h.sig_grid[h.bounds[nb - 3]].floor() as usize
-    } else {
-        last.saturating_sub(window)
-    };
-    probe(h, spatial, g0, last, drift)
-}
-
-/// Cells of the spatial index (64 track grid steps each) the drifting map's
-/// probe looks beyond its window at most: its radius stops growing there,
-/// so a probe costs the same at any length of history. (8 cells gave the
-/// same candidates on KITTI, at more time.)
-const DRIFT_CELLS: i32 = 4;
-/// The consistent map's probe radius is a quarter of its window, within a
-/// cell or two; this only bounds a degenerate window.
-const CONSISTENT_CELLS: i32 = 64;
-
-/// The probe of track samples `[g0, g1]`, as the batch proximity seeds
-/// (`pipeline::proximity`): each probe point's nearest earlier sample (at
-/// least the window's own length back along the path) within the
-/// consistent map's radius, else (`drift > 0`) the drifting map's.
-pub fn probe(
-    h: &History,
-    spatial: &SpatialIndex,
-    g0: usize,
-    g1: usize,
-    drift: f64,
-) -> Option<ProximitySeed> {
-    if g1 <= g0 + PROBES {
-        return None;
-    }
-    let length = h.s[g1] - h.s[g0];
-    if length <= 0.0 {
-        return None;
-    }
-    let probes: [(Vector2<f64>, f64); PROBES] = std::array::from_fn(|k| {
-        let g = g0 + (k * (g1 - g0)) / (PROBES - 1);
-        (h.point(g), h.s[g])
-    });
-    let allowed = |k: usize, t: usize| (h.s[t] - probes[k].1).abs() > length && t < g0;
-    let near = |k: usize, found: Option<(f64, usize)>| {
-        found.map(|(ratio, t)| Near {
-            ratio,
-            target: t,
-            pair: (h.point(t), probes[k].0),
-        })
-    };
-    let points = probes.map(|p| p.0);
-    // The consistent map's radius first (one scan of the cells around the
-    // window), then, where that finds nothing, the drifting map's.
-    let r = radius(length, 0.0, 0.0);
-    let found = spatial.nearest_scaled(h, &points, r, CONSISTENT_CELLS, |_, _| r, allowed);
-    let consistent: [Option<Near>; PROBES] = std::array::from_fn(|k| near(k, found[k]));
-    seed_of([g0, g1], length, &consistent, false).or_else(|| {
-        if drift <= 0.0 {
-            return None;
-        }
-        // Every earlier part lies at most the whole path back.
-        let found = spatial.nearest_scaled(
-            h,
-            &points,
-            radius(length, drift, h.s[g1]),
-            DRIFT_CELLS,
-            |k, t| radius(length, drift, (probes[k].1 - h.s[t]).abs()),
-            allowed,
-        );
-        let drifting: [Option<Near>; PROBES] = std::array::from_fn(|k| near(k, found[k]));
-        seed_of([g0, g1], length, &drifting, true)
-    })
-}
-
 /// Verifies, scores and converts the candidates of one query.
 pub fn verify_all(
     h: &History,
@@ -495,82 +412,6 @@ pub fn verify_all(
     rank(found, config.top_k, f64::NEG_INFINITY, Duplicates::Place)
 }
 
-/// Probe periods of track samples the network registration places: about
-/// 100 poses, 80 m, on KITTI, a junction's turn with the straights on both
-/// sides of it (3 periods: one strong-drift event fewer of 44; 6: the same
-/// events, more false candidates).
-const REGISTER_PERIODS: usize = 4;
-/// Least turning (radians) of a window worth registering: one that barely
-/// turns slides along its road and nothing pins it. Half a radian: 13
-/// calls on KITTI 00's ground truth, 66 -> 71 strong-drift events of 110
-/// (seeds 1-10) against a radian, at 8 calls. (None at all: 75 events, at
-/// about three times the calls, 23 in the thirteenth session; the margin
-/// over other places, `register::RIVAL_BANDS`, leaves a straight alone.)
-const REGISTER_MIN_TURNING: f64 = 0.5;
-/// Least [`register::Registration::margin`] of an emitted placement over its
-/// best rival: a window that fits two places about as well is left to the
-/// later windows (at 1.3, two strong-drift events fewer of 44; with no
-/// margin at all, 279 of 320 placements on the strong-drift runs were
-/// wrong).
-const REGISTER_MARGIN: f64 = 1.2;
-/// Probe periods between two network registrations at least: a segment's
-/// end and a periodic probe can come a few samples apart, and their windows
-/// would be placed twice. (At every probe: 22 strong-drift events of 44
-/// instead of 21, the stream within noise; every second period: 20.)
-const REGISTER_EVERY: usize = 1;
-
-/// The newest stretch registered onto the map's road network
-/// ([`register`]), for a probe whose seed found a road but no candidate
-/// (with the drifting map's search on): verified from the registered
-/// placement, emitted as the drift probe's.
-pub fn register_newest(
-    h: &History,
-    searcher: &mut Searcher,
-    frame: &Frame,
-    seed: &ProximitySeed,
-    config: &OnlineConfig,
-) -> Option<Found> {
-    let prior = config.pipeline.drift_prior.as_ref()?;
-    let spatial = searcher.spatial.as_ref()?;
-    if config.drift_radius() <= 0.0 {
-        return None;
-    }
-    let g1 = seed.query[1];
-    let g0 = g1.checked_sub(REGISTER_PERIODS * config.probe_every)?;
-    let length = h.s[g1] - h.s[g0];
-    let turning: f64 = (g0..g1)
-        .map(|g| (h.curvature[g] as f64).abs() * (h.s[g + 1] - h.s[g]))
-        .sum();
-    let recent = searcher
-        .last_registered
-        .is_some_and(|last| g1 < last + REGISTER_EVERY * config.probe_every);
-    if turning < REGISTER_MIN_TURNING || length <= 0.0 || recent {
-        return None;
-    }
-    searcher.last_registered = Some(g1);
-    // The drift prior's reach at the seed's distance.
-    let between = (h.s[g0] - h.s[seed.target]).max(0.0);
-    let gap = spatial.every() as f64 * frame.step;
-    let bounds = register::Bounds::of_drift(prior, config.drift_radius(), length, between, gap);
-    let placed = register::register(h, spatial, g0, g1, &bounds, prior)?;
-    if placed.margin < REGISTER_MARGIN {
-        return None;
-    }
-    let room = g1 - g0;
-    let t_range = [placed.target.saturating_sub(room), placed.target + room];
-    grow_seeded(
-        h,
-        frame,
-        config,
-        [g0, g1],
-        [g0, g1],
-        t_range,
-        [placed.sim],
-        Source::Network,
-    )
-    .filter(|f| emitted(f, config, frame.step))
-}
-
 /// Whether a candidate is emitted: its score reaches the cut of its
 /// source. A drifting-map probe's candidate has passed the probe's fit
 /// check and scores low by design (little turning, a similarity far from
@@ -582,7 +423,7 @@ pub fn register_newest(
 /// be at least [`DRIFT_MIN_WINDOW`] of a periodic probe's window long
 /// (regression: `stream_verify`, fisheye cameras on KITTI 06). `step` is
 /// the track grid step.
-fn emitted(f: &Found, config: &OnlineConfig, step: f64) -> bool {
+pub(super) fn emitted(f: &Found, config: &OnlineConfig, step: f64) -> bool {
     let h = &f.hypothesis;
     match f.source {
         Source::DriftProbe | Source::Network => {

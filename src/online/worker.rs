@@ -20,7 +20,9 @@ use serde::Serialize;
 use super::events::{CandidateEvent, KeyframePair};
 use super::frontend::Outbox;
 use super::history::History;
-use super::search::{proximity_seed, register_newest, verify_all, Frame, Searcher};
+use super::network::register_newest;
+use super::probe::proximity_seed;
+use super::search::{verify_all, Frame, Searcher};
 use super::OnlineConfig;
 
 /// What to do when the worker's queue is full.

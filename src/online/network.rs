@@ -1,0 +1,87 @@
+//! When to place the newest stretch on the whole road network
+//! ([`register`]) and what becomes of the placement: the detector's trigger
+//! of the registration (a drifting map's revisit entered and left by other
+//! roads), its gates, and the candidate grown from it.
+
+use super::events::Source;
+use super::history::History;
+use super::register;
+use super::search::{emitted, grow_seeded, Found, Frame, Searcher};
+use super::OnlineConfig;
+use crate::pipeline::proximity::ProximitySeed;
+
+/// Probe periods of track samples the network registration places: about
+/// 100 poses, 80 m, on KITTI, a junction's turn with the straights on both
+/// sides of it (3 periods: one strong-drift event fewer of 44; 6: the same
+/// events, more false candidates).
+const REGISTER_PERIODS: usize = 4;
+/// Least turning (radians) of a window worth registering: one that barely
+/// turns slides along its road and nothing pins it. Half a radian: 13
+/// calls on KITTI 00's ground truth, 66 -> 71 strong-drift events of 110
+/// (seeds 1-10) against a radian, at 8 calls. (None at all: 75 events, at
+/// about three times the calls, 23 in the thirteenth session; the margin
+/// over other places, `register::RIVAL_BANDS`, leaves a straight alone.)
+const REGISTER_MIN_TURNING: f64 = 0.5;
+/// Least [`register::Registration::margin`] of an emitted placement over its
+/// best rival: a window that fits two places about as well is left to the
+/// later windows (at 1.3, two strong-drift events fewer of 44; with no
+/// margin at all, 279 of 320 placements on the strong-drift runs were
+/// wrong).
+const REGISTER_MARGIN: f64 = 1.2;
+/// Probe periods between two network registrations at least: a segment's
+/// end and a periodic probe can come a few samples apart, and their windows
+/// would be placed twice. (At every probe: 22 strong-drift events of 44
+/// instead of 21, the stream within noise; every second period: 20.)
+const REGISTER_EVERY: usize = 1;
+
+/// The newest stretch registered onto the map's road network
+/// ([`register`]), for a probe whose seed found a road but no candidate
+/// (with the drifting map's search on): verified from the registered
+/// placement, emitted as the drift probe's.
+pub fn register_newest(
+    h: &History,
+    searcher: &mut Searcher,
+    frame: &Frame,
+    seed: &ProximitySeed,
+    config: &OnlineConfig,
+) -> Option<Found> {
+    let prior = config.pipeline.drift_prior.as_ref()?;
+    let spatial = searcher.spatial.as_ref()?;
+    if config.drift_radius() <= 0.0 {
+        return None;
+    }
+    let g1 = seed.query[1];
+    let g0 = g1.checked_sub(REGISTER_PERIODS * config.probe_every)?;
+    let length = h.s[g1] - h.s[g0];
+    let turning: f64 = (g0..g1)
+        .map(|g| (h.curvature[g] as f64).abs() * (h.s[g + 1] - h.s[g]))
+        .sum();
+    let recent = searcher
+        .last_registered
+        .is_some_and(|last| g1 < last + REGISTER_EVERY * config.probe_every);
+    if turning < REGISTER_MIN_TURNING || length <= 0.0 || recent {
+        return None;
+    }
+    searcher.last_registered = Some(g1);
+    // The drift prior's reach at the seed's distance.
+    let between = (h.s[g0] - h.s[seed.target]).max(0.0);
+    let gap = spatial.every() as f64 * frame.step;
+    let bounds = register::Bounds::of_drift(prior, config.drift_radius(), length, between, gap);
+    let placed = register::register(h, spatial, g0, g1, &bounds, prior)?;
+    if placed.margin < REGISTER_MARGIN {
+        return None;
+    }
+    let room = g1 - g0;
+    let t_range = [placed.target.saturating_sub(room), placed.target + room];
+    grow_seeded(
+        h,
+        frame,
+        config,
+        [g0, g1],
+        [g0, g1],
+        t_range,
+        [placed.sim],
+        Source::Network,
+    )
+    .filter(|f| emitted(f, config, frame.step))
+}
