@@ -52,14 +52,18 @@ pub fn register_newest(
     }
     let g1 = seed.query[1];
     let g0 = g1.checked_sub(REGISTER_PERIODS * config.probe_every)?;
-    let length = h.s[g1] - h.s[g0];
-    let turning: f64 = (g0..g1)
-        .map(|g| (h.curvature[g] as f64).abs() * (h.s[g + 1] - h.s[g]))
-        .sum();
     let recent = searcher
         .last_registered
         .is_some_and(|last| g1 < last + REGISTER_EVERY * config.probe_every);
-    if turning < REGISTER_MIN_TURNING || length <= 0.0 || recent {
+    let length = h.s[g1] - h.s[g0];
+    if recent || length <= 0.0 {
+        return None;
+    }
+    // Only a window that passes this gate counts for the rate limit.
+    let turning: f64 = (g0..g1)
+        .map(|g| (h.curvature[g] as f64).abs() * (h.s[g + 1] - h.s[g]))
+        .sum();
+    if turning < REGISTER_MIN_TURNING {
         return None;
     }
     searcher.last_registered = Some(g1);

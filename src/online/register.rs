@@ -374,7 +374,7 @@ pub fn register(
         let mut offsets: Vec<f64> = window
             .points
             .iter()
-            .map(|(p, _)| (sim.apply(p) - p).norm())
+            .map(|(p, _)| (to_map(p) - p).norm())
             .collect();
         offsets.sort_by(f64::total_cmp);
         let angle = sim.angle.rem_euclid(std::f64::consts::TAU);
