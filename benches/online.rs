@@ -163,8 +163,14 @@ fn match_segment_on(c: &mut Criterion, name: &str, points: &[Vector3<f64>]) {
     let g1 = h.xy.len() - 1;
     let g0 = g1 - 4 * config.probe_every;
     let length = h.s[g1] - h.s[g0];
-    let gap = spatial.every() as f64 * frame.step;
-    let bounds = Bounds::of_drift(&prior, config.drift_radius(), length, 3000.0, gap);
+    let bounds = Bounds::of_drift(
+        &prior,
+        config.drift_radius(),
+        length,
+        3000.0,
+        spatial,
+        frame.step,
+    );
     g.bench_function(format!("register_window_100k_{name}"), |b| {
         b.iter(|| register(h, spatial, g0, g1, &bounds, &prior))
     });

@@ -250,6 +250,11 @@ impl SpatialIndex {
         }
     }
 
+    /// Side of a cell.
+    pub fn cell(&self) -> f64 {
+        self.cell
+    }
+
     fn key(&self, p: &Vector2<f64>) -> (i32, i32) {
         (
             (p.x / self.cell).floor() as i32,

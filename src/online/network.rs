@@ -69,8 +69,14 @@ pub fn register_newest(
     searcher.last_registered = Some(g1);
     // The drift prior's reach at the seed's distance.
     let between = (h.s[g0] - h.s[seed.target]).max(0.0);
-    let gap = spatial.every() as f64 * frame.step;
-    let bounds = register::Bounds::of_drift(prior, config.drift_radius(), length, between, gap);
+    let bounds = register::Bounds::of_drift(
+        prior,
+        config.drift_radius(),
+        length,
+        between,
+        spatial,
+        frame.step,
+    );
     let placed = register::register(h, spatial, g0, g1, &bounds, prior)?;
     if placed.margin < REGISTER_MARGIN {
         return None;
