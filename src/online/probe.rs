@@ -32,7 +32,7 @@ pub fn proximity_seed(
 /// probe looks beyond its window at most: its radius stops growing there,
 /// so a probe costs the same at any length of history. (8 cells gave the
 /// same candidates on KITTI, at more time.)
-pub(super) const DRIFT_CELLS: i32 = 4;
+pub const DRIFT_CELLS: i32 = 4;
 /// The consistent map's probe radius is a quarter of its window, within a
 /// cell or two; this only bounds a degenerate window.
 const CONSISTENT_CELLS: i32 = 64;
