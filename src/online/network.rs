@@ -57,7 +57,7 @@ pub fn register_newest(
     // (`register::RIVAL_BANDS`). A gate on the window's turning (half a
     // radian until the fifteenth session) saved registrations that the
     // narrower reach now pays for: KITTI 00's ground truth 13 -> 22 calls,
-    // 172.4 M -> 186.8 M worker instructions (the fourteenth session's
+    // 172.7 M -> 187.1 M worker instructions (the fourteenth session's
     // 186.5 M); strong drift, seeds 1-40, 296 -> 320 of 440.
     searcher.last_registered = Some(g1);
     // The drift prior's reach at the seed's distance.
