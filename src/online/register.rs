@@ -473,6 +473,7 @@ pub fn register(
 
 #[cfg(test)]
 mod tests {
+    use super::super::network::REGISTER_MARGIN;
     use super::*;
 
     /// Grid step of the synthetic paths (units are arbitrary: the method is
@@ -628,14 +629,14 @@ mod tests {
 
     /// A turn at one of two look-alike junctions 40 units apart (a third of
     /// the window): the other is a rival place, and the margin stays below
-    /// the detector's 1.2 (undecided).
+    /// the detector's (undecided).
     #[test]
     fn a_look_alike_junction_in_reach_is_a_rival() {
         let (angle, shift) = (2f64.to_radians(), Vector2::new(15.0, -4.0));
         let (h, spatial, range) = drive_on(&[0.0, 40.0], &turn_at_junction(), angle, shift);
         let reg = place(&h, &spatial, range).expect("a placement");
         assert!(reg.support > 0.9, "{reg:?}");
-        assert!(reg.margin < 1.2, "{reg:?}");
+        assert!(reg.margin < REGISTER_MARGIN, "{reg:?}");
     }
 
     #[test]
@@ -645,7 +646,7 @@ mod tests {
         let reg = place(&h, &spatial, range).expect("a placement");
         // On the road, but any slide along it fits as well.
         assert!(reg.support > 0.9, "{reg:?}");
-        assert!(reg.margin < 1.2, "{reg:?}");
+        assert!(reg.margin < REGISTER_MARGIN, "{reg:?}");
     }
 
     #[test]
