@@ -59,8 +59,8 @@ pub struct OnlineConfig {
     /// nearby (share of correct candidates 1.00 -> 0.89 on ground truth).
     /// Where its seed finds a road but nothing is emitted, the newest
     /// stretch is also placed on the whole road network
-    /// ([`super::network`]; strong drift 18 -> 28 of 44 events, 320 of 440
-    /// over seeds 1-40; share on ground truth 0.89 -> 0.78).
+    /// ([`super::network`]; strong drift 18 -> 31 of 44 events, 338 of 440
+    /// over seeds 1-40; share on ground truth 0.89 -> 0.75).
     pub drift_probe: bool,
     /// Between segments, probe the proximity every this many new track
     /// samples (half typical steps), over the newest twice as many.
