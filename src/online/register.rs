@@ -27,6 +27,7 @@ use nalgebra::Vector2;
 use super::history::{CellHash, History, SpatialIndex};
 use super::probe;
 use crate::geometry::Similarity2;
+use crate::pipeline::proximity::radius;
 use crate::score::DriftPrior;
 
 /// Window points that vote (one bit each of a `u64`).
@@ -94,12 +95,13 @@ pub struct Bounds {
 
 impl Bounds {
     /// The drift prior's reach for a window of `length` whose earlier part
-    /// may lie `between` back along the path: 1.5 times its position sigma
-    /// (`position` per unit of path, the drifting probe's rate) beyond a
-    /// quarter of the window, but no farther beyond it than the drifting
-    /// probe looks ([`probe::DRIFT_CELLS`] cells of `spatial`); two of its
-    /// heading sigmas. The gap is `spatial`'s indexing stride of track steps
-    /// of `step`.
+    /// may lie `between` back along the path: the proximity probes' radius
+    /// ([`radius`]) at 1.5 times the prior's position sigma (`position` per
+    /// unit of path, the drifting probe's rate), but no farther beyond the
+    /// consistent map's radius than the drifting probe looks
+    /// ([`probe::DRIFT_CELLS`] cells of `spatial`); two of its heading
+    /// sigmas. The gap is `spatial`'s indexing stride of track steps of
+    /// `step`.
     ///
     /// Without the probe's limit the reach grew to a quarter of a kilometre
     /// on KITTI's later revisits, and every look-alike corner in it was a
@@ -116,9 +118,9 @@ impl Bounds {
         step: f64,
     ) -> Self {
         let ratio = (between / length).sqrt();
-        let beyond = (1.5 * position * between).min(probe::DRIFT_CELLS as f64 * spatial.cell());
+        let widest = radius(length, 0.0, 0.0) + probe::DRIFT_CELLS as f64 * spatial.cell();
         Bounds {
-            radius: 0.25 * length + beyond,
+            radius: radius(length, 1.5 * position, between).min(widest),
             angle: 2.0 * (prior.heading_floor + prior.heading * ratio),
             exclude: length,
             gap: spatial.every() as f64 * step,
@@ -183,12 +185,10 @@ impl Map {
             .map(|j| (map.cell_of(&map.samples[j].0).0, j as u32))
             .collect();
         keyed.sort_unstable();
-        map.grid.reserve(keyed.len());
-        for (i, (k, j)) in keyed.iter().enumerate() {
-            let run = map.grid.entry(*k).or_insert((i as u32, i as u32));
-            run.1 += 1;
-            map.items.push(*j);
+        for (i, (k, _)) in keyed.iter().enumerate() {
+            map.grid.entry(*k).or_insert((i as u32, i as u32)).1 += 1;
         }
+        map.items = keyed.into_iter().map(|(_, j)| j).collect();
         map
     }
 
