@@ -421,17 +421,26 @@ pub fn verify_all(
 /// five poses mapped onto one: regression
 /// `online_input::candidates_carry_a_keyframe_pair_for_the_verifier`) and
 /// be at least [`DRIFT_MIN_WINDOW`] of a periodic probe's window long
-/// (regression: `stream_verify`, fisheye cameras on KITTI 06). `step` is
+/// (regression: `stream_verify`, fisheye cameras on KITTI 06). With the
+/// drifting map's search on, a proximity candidate short of the cut is
+/// held to the drifting probe's rules: on a drifting map the consistent
+/// radius holds no promise either, and its seed is found there only
+/// because the drift happens to be small (regression
+/// `online_drift_probe::a_straight_revisit_found_near_is_emitted`). `step` is
 /// the track grid step.
 pub(super) fn emitted(f: &Found, config: &OnlineConfig, step: f64) -> bool {
     let h = &f.hypothesis;
+    let drifting = || {
+        h.score >= config.drift_min_score
+            && h.scale.ln().abs() <= DRIFT_SCALE.ln()
+            && h.length >= DRIFT_MIN_WINDOW * (2 * config.probe_every) as f64 * step
+    };
     match f.source {
-        Source::DriftProbe | Source::Network => {
-            h.score >= config.drift_min_score
-                && h.scale.ln().abs() <= DRIFT_SCALE.ln()
-                && h.length >= DRIFT_MIN_WINDOW * (2 * config.probe_every) as f64 * step
+        Source::DriftProbe | Source::Network => drifting(),
+        Source::Proximity => {
+            h.score >= config.min_score || (config.drift_radius() > 0.0 && drifting())
         }
-        Source::Shape | Source::Proximity => h.score >= config.min_score,
+        Source::Shape => h.score >= config.min_score,
     }
 }
 

@@ -220,9 +220,13 @@ impl WorkerState {
             _ => None,
         };
         let mut found = verify_all(h, frame, &shape, seed.as_ref(), &self.config);
-        // Where the seed found a road but nothing was emitted, the newest
-        // stretch placed on the whole network (a drifting map's search).
-        if let (true, Some(seed)) = (found.is_empty(), &seed) {
+        // Where the seed found a road but nothing reached the cut (only a
+        // drifting map's low scores, if anything), the newest stretch placed
+        // on the whole network (a drifting map's search).
+        let weak = found
+            .iter()
+            .all(|f| f.hypothesis.score < self.config.min_score);
+        if let (true, Some(seed)) = (weak, &seed) {
             found.extend(register_newest(
                 h,
                 &mut self.searcher,
