@@ -202,25 +202,46 @@ impl Map {
 
     /// The nearest sample within `radius` of `p`.
     fn nearest(&self, p: &Vector2<f64>) -> Option<usize> {
+        self.nearest_in(p, &mut Block::default())
+    }
+
+    /// [`Map::nearest`], with the block of cells probed last: consecutive
+    /// window points mostly fall in the same block, and its runs are then
+    /// not looked up again (about half the lookups of a placement).
+    fn nearest_in(&self, p: &Vector2<f64>, block: &mut Block) -> Option<usize> {
         let ((kx, ky), (up_x, up_y)) = self.cell_of(p);
-        let (x0, y0) = (kx - 1 + up_x as i32, ky - 1 + up_y as i32);
+        let corner = (kx - 1 + up_x as i32, ky - 1 + up_y as i32);
+        if block.corner != Some(corner) {
+            let run = |c: (i32, i32)| self.grid.get(&c).copied().unwrap_or((0, 0));
+            let (x0, y0) = corner;
+            block.corner = Some(corner);
+            block.runs = [
+                run((x0, y0)),
+                run((x0, y0 + 1)),
+                run((x0 + 1, y0)),
+                run((x0 + 1, y0 + 1)),
+            ];
+        }
         let mut best: Option<(f64, usize)> = None;
-        for cx in x0..=x0 + 1 {
-            for cy in y0..=y0 + 1 {
-                let Some(&(a, b)) = self.grid.get(&(cx, cy)) else {
-                    continue;
-                };
-                for &j in &self.items[a as usize..b as usize] {
-                    let d2 = (self.samples[j as usize].0 - p).norm_squared();
-                    if best.is_none_or(|b| d2 < b.0) {
-                        best = Some((d2, j as usize));
-                    }
+        for &(a, b) in &block.runs {
+            for &j in &self.items[a as usize..b as usize] {
+                let d2 = (self.samples[j as usize].0 - p).norm_squared();
+                if best.is_none_or(|b| d2 < b.0) {
+                    best = Some((d2, j as usize));
                 }
             }
         }
         best.filter(|b| b.0 <= self.radius * self.radius)
             .map(|b| b.1)
     }
+}
+
+/// The two-by-two block of cells a lookup probed: its corner cell and the
+/// cells' runs of [`Map::items`].
+#[derive(Default)]
+struct Block {
+    corner: Option<(i32, i32)>,
+    runs: [(u32, u32); 4],
 }
 
 /// The window: points, turning weights, centroid.
@@ -247,8 +268,9 @@ impl Window {
     fn support(&self, map: &Map, sim: &Similarity2) -> OnMap {
         let mut on = OnMap::default();
         let to_map = sim.applier();
+        let mut block = Block::default();
         for ((p, _), wi) in self.points.iter().zip(&self.weights) {
-            if let Some(j) = map.nearest(&to_map(p)) {
+            if let Some(j) = map.nearest_in(&to_map(p), &mut block) {
                 on.support += wi;
                 on.pairs.push((map.samples[j].0, *p));
                 on.weights.push(*wi);
@@ -258,14 +280,20 @@ impl Window {
         on
     }
 
-    /// `rounds` rigid refits of `sim` on the map (a free scale would shrink
-    /// the window onto any dense part of the map), and the support.
-    fn refine(&self, map: &Map, mut sim: Similarity2, rounds: usize) -> (Similarity2, f64) {
+    /// `rounds` rigid refits of `sim`, which lays `on` on the map (a free
+    /// scale would shrink the window onto any dense part of the map): the
+    /// refined similarity and what it lays on the map, which the next
+    /// refinement starts from instead of looking it up again.
+    fn refine(
+        &self,
+        map: &Map,
+        mut sim: Similarity2,
+        mut on: OnMap,
+        rounds: usize,
+    ) -> (Similarity2, OnMap) {
         for _ in 0..rounds {
-            let OnMap {
-                pairs, weights: w, ..
-            } = self.support(map, &sim);
-            let Some(fit) = Similarity2::fit(&pairs, Some(&w)).filter(|_| pairs.len() >= 3) else {
+            let (pairs, w) = (&on.pairs, &on.weights);
+            let Some(fit) = Similarity2::fit(pairs, Some(w)).filter(|_| pairs.len() >= 3) else {
                 break;
             };
             let rotate = Similarity2 {
@@ -274,7 +302,7 @@ impl Window {
                 translation: Vector2::zeros(),
             };
             let (mut cm, mut cq, mut ws) = (Vector2::zeros(), Vector2::zeros(), 0.0);
-            for ((m, q), wi) in pairs.iter().zip(&w) {
+            for ((m, q), wi) in pairs.iter().zip(w) {
                 cm += m * *wi;
                 cq += q * *wi;
                 ws += wi;
@@ -283,8 +311,9 @@ impl Window {
                 translation: cm / ws - rotate.apply(&(cq / ws)),
                 ..rotate
             };
+            on = self.support(map, &sim);
         }
-        (sim, self.support(map, &sim).support)
+        (sim, on)
     }
 }
 
@@ -435,7 +464,7 @@ pub fn register(
             },
         ))
     };
-    let mut placements: Vec<(f64, Registration)> = Vec::new();
+    let mut placements: Vec<(f64, Registration, OnMap)> = Vec::new();
     for ((b, kx, ky), _) in cells {
         // history_T_window about the centroid: p -> c + t + R (p - c).
         let rotate = Similarity2 {
@@ -448,24 +477,26 @@ pub fn register(
             translation: centroid + t - rotate.apply(&centroid),
             ..rotate
         };
-        let (sim, support) = window.refine(&map, start, ROUNDS.0);
-        placements.extend(score(&sim, support));
+        let on = window.support(&map, &start);
+        let (sim, on) = window.refine(&map, start, on, ROUNDS.0);
+        placements.extend(score(&sim, on.support).map(|(s, r)| (s, r, on)));
     }
     placements.sort_by(|a, b| b.0.total_cmp(&a.0));
     for placement in placements.iter_mut().take(TOP_REFINED) {
-        let (sim, support) = window.refine(&map, placement.1.sim, ROUNDS.1 - ROUNDS.0);
-        if let Some(refined) = score(&sim, support) {
-            *placement = refined;
+        let on = std::mem::take(&mut placement.2);
+        let (sim, on) = window.refine(&map, placement.1.sim, on, ROUNDS.1 - ROUNDS.0);
+        if let Some((s, r)) = score(&sim, on.support) {
+            *placement = (s, r, on);
         }
     }
     placements.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let (best_score, mut best) = placements.first().copied()?;
+    let (best_score, mut best) = placements.first().map(|p| (p.0, p.1))?;
     let mid = window.points[POINTS / 2].0;
-    let rival = placements.iter().skip(1).find(|(_, r)| {
+    let rival = placements.iter().skip(1).find(|(_, r, _)| {
         axial(r.sim.angle - best.sim.angle).abs() > ANGLE_BIN
             || (r.sim.apply(&mid) - best.sim.apply(&mid)).norm() > RIVAL_BANDS as f64 * band
     });
-    if let Some((rival_score, _)) = rival {
+    if let Some((rival_score, _, _)) = rival {
         best.margin = best_score / rival_score.max(f64::MIN_POSITIVE);
     }
     Some(best)
