@@ -240,9 +240,15 @@ fn candidates_carry_a_keyframe_pair_for_the_verifier() {
         assert!((h.b_range[0]..=h.b_range[1]).contains(&k.match_pose));
         // Ground truth: the two keyframes see the same place (within 15 m)
         // whenever the candidate is a true revisit of a consistent map (the
-        // drifting-map searches' candidates are other roads on this one).
+        // drifting-map searches' candidates are other roads on this one, and
+        // so are the proximity candidates below the cut held to their rules).
         use turnprint::online::Source;
-        if !matches!(c.source, Source::DriftProbe | Source::Network) {
+        let drifting = match c.source {
+            Source::DriftProbe | Source::Network => true,
+            Source::Proximity => h.score < OnlineConfig::default().min_score,
+            Source::Shape => false,
+        };
+        if !drifting {
             assert!(
                 (points[k.query_pose] - points[k.match_pose]).norm() < 15.0,
                 "{k:?}"

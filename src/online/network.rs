@@ -32,8 +32,9 @@ const REGISTER_EVERY: usize = 1;
 
 /// The newest stretch registered onto the map's road network
 /// ([`register`]), for a probe whose seed found a road but no candidate
-/// (with the drifting map's search on): verified from the registered
-/// placement, emitted as the drift probe's.
+/// (a proximity candidate short of the cut aside; with the drifting map's
+/// search on): verified from the registered placement, emitted as the drift
+/// probe's.
 pub fn register_newest(
     h: &History,
     searcher: &mut Searcher,

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use crossbeam::channel::{Receiver, Sender};
 use serde::Serialize;
 
-use super::events::{CandidateEvent, KeyframePair};
+use super::events::{CandidateEvent, KeyframePair, Source};
 use super::frontend::Outbox;
 use super::history::History;
 use super::network::register_newest;
@@ -220,12 +220,14 @@ impl WorkerState {
             _ => None,
         };
         let mut found = verify_all(h, frame, &shape, seed.as_ref(), &self.config);
-        // Where the seed found a road but nothing reached the cut (only a
-        // drifting map's low scores, if anything), the newest stretch placed
-        // on the whole network (a drifting map's search).
+        // Where the seed found a road but nothing came of it, the newest
+        // stretch placed on the whole network (a drifting map's search). A
+        // proximity candidate short of the cut counts as nothing: the
+        // consistent map's probe found it, and the drifting probe, which
+        // would have looked farther, did not run.
         let weak = found
             .iter()
-            .all(|f| f.hypothesis.score < self.config.min_score);
+            .all(|f| f.source == Source::Proximity && f.hypothesis.score < self.config.min_score);
         if let (true, Some(seed)) = (weak, &seed) {
             found.extend(register_newest(
                 h,
