@@ -115,3 +115,14 @@ fn a_placement_a_tenth_ahead_of_its_rival_is_emitted() {
 fn a_weak_candidate_does_not_stop_the_registration() {
     placed_on_the_network("tests/data/06.txt", 3, [829, 1100], 1101);
 }
+
+/// KITTI 02's revisit at frames 4185-4274 under seed 32, drifted about 32
+/// m. The drifting probe finds the earlier road near its windows, but no
+/// one similarity lays the probe points on their nearest points (the drift
+/// bends the window off the road it revisits), so it had no seed and the
+/// registration never ran. Roads found within half the drifting radius now
+/// count for the registration without a seed (`probe::Probed::Roads`).
+#[test]
+fn roads_that_no_similarity_fits_are_registered() {
+    placed_on_the_network("tests/data/02.txt", 32, [4185, 4274], 4320);
+}

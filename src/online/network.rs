@@ -5,10 +5,10 @@
 
 use super::events::Source;
 use super::history::History;
+use super::probe::Probed;
 use super::register;
 use super::search::{emitted, grow_seeded, Found, Frame, Searcher};
 use super::OnlineConfig;
-use crate::pipeline::proximity::ProximitySeed;
 
 /// Probe periods of track samples the network registration places: about
 /// 100 poses, 80 m, on KITTI, a junction's turn with the straights on both
@@ -31,15 +31,15 @@ pub const REGISTER_MARGIN: f64 = 1.1;
 const REGISTER_EVERY: usize = 1;
 
 /// The newest stretch registered onto the map's road network
-/// ([`register`]), for a probe whose seed found a road but no candidate
-/// (a proximity candidate short of the cut aside; with the drifting map's
+/// ([`register`]), for a probe that found a road but no candidate (a
+/// proximity candidate short of the cut aside; with the drifting map's
 /// search on): verified from the registered placement, emitted as the drift
 /// probe's.
 pub fn register_newest(
     h: &History,
     searcher: &mut Searcher,
     frame: &Frame,
-    seed: &ProximitySeed,
+    probed: &Probed,
     config: &OnlineConfig,
 ) -> Option<Found> {
     let prior = config.pipeline.drift_prior.as_ref()?;
@@ -47,7 +47,7 @@ pub fn register_newest(
     if config.drift_radius() <= 0.0 {
         return None;
     }
-    let g1 = seed.query[1];
+    let g1 = probed.query()[1];
     let g0 = g1.checked_sub(REGISTER_PERIODS * config.probe_every)?;
     let recent = searcher
         .last_registered
@@ -64,8 +64,8 @@ pub fn register_newest(
     // 172.7 M -> 187.1 M worker instructions (the fourteenth session's
     // 186.5 M); strong drift, seeds 1-40, 296 -> 320 of 440.
     searcher.last_registered = Some(g1);
-    // The drift prior's reach at the seed's distance.
-    let between = (h.s[g0] - h.s[seed.target]).max(0.0);
+    // The drift prior's reach at the probed roads' distance.
+    let between = (h.s[g0] - h.s[probed.target()]).max(0.0);
     let bounds = register::Bounds::of_drift(
         prior,
         config.drift_radius(),

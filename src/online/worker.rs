@@ -21,7 +21,7 @@ use super::events::{CandidateEvent, KeyframePair, Source};
 use super::frontend::Outbox;
 use super::history::History;
 use super::network::register_newest;
-use super::probe::proximity_seed;
+use super::probe::{probe_newest, Probed};
 use super::search::{verify_all, Frame, Searcher};
 use super::OnlineConfig;
 
@@ -204,8 +204,8 @@ impl WorkerState {
             self.stats.probes += 1;
             Vec::new()
         };
-        let seed = match (&self.searcher.spatial, self.config.proximity) {
-            (Some(sp), true) => proximity_seed(
+        let probed = match (&self.searcher.spatial, self.config.proximity) {
+            (Some(sp), true) => probe_newest(
                 h,
                 sp,
                 segments,
@@ -219,8 +219,9 @@ impl WorkerState {
             ),
             _ => None,
         };
-        let mut found = verify_all(h, frame, &shape, seed.as_ref(), &self.config);
-        // Where the seed found a road but nothing came of it, the newest
+        let seed = probed.as_ref().and_then(Probed::seed);
+        let mut found = verify_all(h, frame, &shape, seed, &self.config);
+        // Where the probe found a road but nothing came of it, the newest
         // stretch placed on the whole network (a drifting map's search). A
         // proximity candidate short of the cut counts as nothing: the
         // consistent map's probe found it, and the drifting probe, which
@@ -228,12 +229,12 @@ impl WorkerState {
         let weak = found
             .iter()
             .all(|f| f.source == Source::Proximity && f.hypothesis.score < self.config.min_score);
-        if let (true, Some(seed)) = (weak, &seed) {
+        if let (true, Some(probed)) = (weak, &probed) {
             found.extend(register_newest(
                 h,
                 &mut self.searcher,
                 frame,
-                seed,
+                probed,
                 &self.config,
             ));
         }

@@ -79,27 +79,33 @@ pub fn seed_of(
     near: &[Option<Near>; PROBES],
     drifted: bool,
 ) -> Option<ProximitySeed> {
-    let mut ratios = near.map(|n| n.map_or(f64::INFINITY, |n| n.ratio));
-    ratios.sort_by(f64::total_cmp);
-    if ratios[PROBES / 2] >= 1.0 {
-        return None;
-    }
+    let target = near_target(near, 1.0)?;
     // The probes that found a point: at least half of them, by the median.
-    let found: Vec<Near> = near.iter().flatten().copied().collect();
-    let mut targets: Vec<usize> = found.iter().map(|n| n.target).collect();
-    targets.sort_unstable();
-    let pairs: Vec<_> = found.iter().map(|n| n.pair).collect();
+    let pairs: Vec<_> = near.iter().flatten().map(|n| n.pair).collect();
     let start = match drifted {
         true => drifted_start(&pairs, length)?,
         false => Similarity2::identity(),
     };
     Some(ProximitySeed {
         query,
-        target: targets[targets.len() / 2],
+        target,
         start,
         drifted,
         pairs,
     })
+}
+
+/// The probes' median nearest grid index, when their median ratio is below
+/// `ratio` (1: within the radius).
+pub fn near_target(near: &[Option<Near>; PROBES], ratio: f64) -> Option<usize> {
+    let mut ratios = near.map(|n| n.map_or(f64::INFINITY, |n| n.ratio));
+    ratios.sort_by(f64::total_cmp);
+    if ratios[PROBES / 2] >= ratio {
+        return None;
+    }
+    let mut targets: Vec<usize> = near.iter().flatten().map(|n| n.target).collect();
+    targets.sort_unstable();
+    Some(targets[targets.len() / 2])
 }
 
 /// Probe points per window.
