@@ -118,9 +118,8 @@ fn a_weak_candidate_does_not_stop_the_registration() {
 
 /// KITTI 02's revisit at frames 4185-4274 under seed 32, drifted about 32
 /// m. The drifting probe finds the earlier road near its windows, but no
-/// one similarity lays the probe points on their nearest points (the drift
-/// bends the window off the road it revisits), so it had no seed and the
-/// registration never ran. Roads found within half the drifting radius now
+/// one similarity lays the probe points on their nearest points, so it had
+/// no seed and the registration never ran. Roads found within half the drifting radius now
 /// count for the registration without a seed (`probe::Probed::Roads`).
 #[test]
 fn roads_that_no_similarity_fits_are_registered() {

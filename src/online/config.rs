@@ -57,10 +57,10 @@ pub struct OnlineConfig {
     /// closed, and 2.25 more of 11 strong-drift events on average (4 against
     /// 1.75, seeds 1-4); on consistent maps its candidates are other roads
     /// nearby (share of correct candidates 1.00 -> 0.89 on ground truth).
-    /// Where its seed finds a road but nothing is emitted (a proximity
-    /// candidate below the cut, emitted by this probe's rules, aside), the
-    /// newest stretch is also placed on the whole road network
-    /// ([`super::network`]; strong drift 18 -> 32 of 44 events, 349 of 440
+    /// Where it finds a road but nothing is emitted (a proximity candidate
+    /// below the cut, emitted by this probe's rules, aside), the newest
+    /// stretch is also placed on the whole road network
+    /// ([`super::network`]; strong drift 18 -> 32 of 44 events, 366 of 440
     /// over seeds 1-40; share on ground truth 0.89 -> 0.74).
     pub drift_probe: bool,
     /// Between segments, probe the proximity every this many new track

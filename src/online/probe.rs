@@ -16,10 +16,9 @@ pub enum Probed {
     /// A seed to grow from.
     Seed(ProximitySeed),
     /// On a drifting map, earlier roads near the window (its track samples
-    /// `query`; the probes' median nearest sample `target`) that no one
-    /// similarity lays it on: the drift bends a long window off its old
-    /// road, or the nearest roads are other roads beside it. No start to
-    /// grow from, but where the network registration looks.
+    /// `query`; the probes' median nearest sample `target`) whose points
+    /// no one similarity lays the probe points on: no start to grow from,
+    /// but where the network registration looks.
     Roads { query: [usize; 2], target: usize },
 }
 
