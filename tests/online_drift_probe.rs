@@ -44,6 +44,21 @@ fn truth_and_drifted(name: &str, factor: f64, seed: u64) -> (Vec<Vector3<f64>>, 
     (truth, drifted)
 }
 
+/// Asserts that the detector, with default settings, emits a candidate of
+/// `points` that is correct against `truth` and overlaps `frames`.
+fn found_at(points: &[Vector3<f64>], truth: &[Vector3<f64>], frames: [usize; 2]) {
+    let out = common::emitted_candidates(points, OnlineConfig::default());
+    let found = out.iter().any(|c| {
+        let h = &c.hypothesis;
+        h.a_range[0] <= frames[1] && h.a_range[1] >= frames[0] && common::is_correct(c, truth)
+    });
+    assert!(
+        found,
+        "{} candidates, none correct at frames {frames:?}",
+        out.len()
+    );
+}
+
 #[test]
 fn drift_probe_finds_revisits_of_a_strongly_drifting_map() {
     let (truth, drifted) = truth_and_drifted("08", 1.0, 2);
@@ -91,16 +106,7 @@ fn drift_probe_is_on_by_default() {
 #[test]
 fn a_slightly_drifted_revisit_grows_from_the_probe_fit() {
     let (truth, drifted) = truth_and_drifted("00", 0.25, 2);
-    let out = common::emitted_candidates(&drifted, OnlineConfig::default());
-    let found = out.iter().any(|c| {
-        let h = &c.hypothesis;
-        h.a_range[0] <= 1645 && h.a_range[1] >= 1553 && common::is_correct(c, &truth)
-    });
-    assert!(
-        found,
-        "{} candidates, none correct at frames 1553-1645",
-        out.len()
-    );
+    found_at(&drifted, &truth, [1553, 1645]);
 }
 
 /// KITTI 08 under the strong drift model (seed 2), frames 1399-1514 (over
@@ -114,14 +120,5 @@ fn a_slightly_drifted_revisit_grows_from_the_probe_fit() {
 #[test]
 fn a_straight_revisit_found_near_is_emitted() {
     let (truth, drifted) = truth_and_drifted("08", 1.0, 2);
-    let out = common::emitted_candidates(&drifted[..1600], OnlineConfig::default());
-    let found = out.iter().any(|c| {
-        let h = &c.hypothesis;
-        h.a_range[0] <= 1514 && h.a_range[1] >= 1399 && common::is_correct(c, &truth)
-    });
-    assert!(
-        found,
-        "{} candidates, none correct at frames 1399-1514",
-        out.len()
-    );
+    found_at(&drifted[..1600], &truth, [1399, 1514]);
 }

@@ -16,9 +16,9 @@ pub enum Probed {
     /// A seed to grow from.
     Seed(ProximitySeed),
     /// On a drifting map, earlier roads near the window (its track samples
-    /// `query`; the probes' median nearest sample `target`) whose points
-    /// no one similarity lays the probe points on: no start to grow from,
-    /// but where the network registration looks.
+    /// `query`; the probes' median nearest sample `target`), but no one
+    /// similarity lays the probe points on their nearest points: no start
+    /// to grow from, but where the network registration looks.
     Roads { query: [usize; 2], target: usize },
 }
 
@@ -52,7 +52,7 @@ impl Probed {
 /// probes' median lies within this fraction of the drifting radius (a
 /// seed's own test is 1). Strong drift, seeds 1-40: 349 events of 440 with
 /// none, 366 at 0.5, 370 at 1; KITTI 00's ground truth then costs 183.3,
-/// 185.0 and 195.7 M worker instructions (7 more registrations, none true,
+/// 184.8 and 195.7 M worker instructions (7 more registrations, none true,
 /// at 1): the stream's 200 000 poses/s rests on about 187 M.
 const ROADS_RATIO: f64 = 0.5;
 
