@@ -200,15 +200,11 @@ impl Map {
         ((kx, ky), (x - kx as f64 >= 0.5, y - ky as f64 >= 0.5))
     }
 
-    /// The nearest sample within `radius` of `p`.
-    fn nearest(&self, p: &Vector2<f64>) -> Option<usize> {
-        self.nearest_in(p, &mut Block::default())
-    }
-
-    /// [`Map::nearest`], with the block of cells probed last: consecutive
-    /// window points mostly fall in the same block, and its runs are then
-    /// not looked up again (about half the lookups of a placement).
-    fn nearest_in(&self, p: &Vector2<f64>, block: &mut Block) -> Option<usize> {
+    /// The nearest sample within `radius` of `p`, with `block` the block of
+    /// cells the last lookup probed: consecutive window points mostly fall
+    /// in the same block, and its runs are then not looked up again (about
+    /// half the lookups of a placement).
+    fn nearest(&self, p: &Vector2<f64>, block: &mut Block) -> Option<usize> {
         let ((kx, ky), (up_x, up_y)) = self.cell_of(p);
         let corner = (kx - 1 + up_x as i32, ky - 1 + up_y as i32);
         if block.corner != Some(corner) {
@@ -270,7 +266,7 @@ impl Window {
         let to_map = sim.applier();
         let mut block = Block::default();
         for ((p, _), wi) in self.points.iter().zip(&self.weights) {
-            if let Some(j) = map.nearest_in(&to_map(p), &mut block) {
+            if let Some(j) = map.nearest(&to_map(p), &mut block) {
                 on.support += wi;
                 on.pairs.push((map.samples[j].0, *p));
                 on.weights.push(*wi);
@@ -436,12 +432,13 @@ pub fn register(
         // lies on the map (a window entering the map from a new road has
         // its middle off it).
         let to_map = sim.applier();
+        let mut block = Block::default();
         let mut outward = (0..POINTS).map(|k| match k % 2 {
             0 => POINTS / 2 + k / 2,
             _ => POINTS / 2 - k.div_ceil(2),
         });
         let target = outward
-            .find_map(|k| map.nearest(&to_map(&window.points[k].0)))
+            .find_map(|k| map.nearest(&to_map(&window.points[k].0), &mut block))
             .map(|j| map.samples[j].2 as usize)?;
         let mut offsets: Vec<f64> = window
             .points
