@@ -245,33 +245,18 @@ fn main() {
 /// Road before an event that its certificate counts as seen (m).
 const APPROACH_M: f64 = 100.0;
 
-/// Runs of revisit poses spanning at least 40 m (gaps under 20 poses joined).
+/// Revisit events (module doc): the library's grouping
+/// (`eval::revisits::events`), with the 300-frame gap counted in GT frames
+/// (the ORB estimate skips a few).
 fn revisit_events(g: &[Vector3<f64>], frames: &[usize], arc: &[f64]) -> Vec<(usize, usize)> {
-    let n = g.len();
-    let revisit: Vec<bool> = (0..n)
-        .map(|i| (0..n).any(|j| frames[j] + 300 <= frames[i] && (g[i] - g[j]).norm() <= 8.0))
+    let revisits: Vec<Option<usize>> = (0..g.len())
+        .map(|i| {
+            (0..g.len()).find(|&j| frames[j] + 300 <= frames[i] && (g[i] - g[j]).norm() <= 8.0)
+        })
         .collect();
-    let mut runs: Vec<(usize, usize)> = Vec::new();
-    let mut i = 0;
-    while i < n {
-        if !revisit[i] {
-            i += 1;
-            continue;
-        }
-        let start = i;
-        let mut end = i;
-        let mut j = i + 1;
-        while j < n && j <= end + 20 {
-            if revisit[j] {
-                end = j;
-            }
-            j += 1;
-        }
-        runs.push((start, end));
-        i = end + 1;
-    }
-    runs.into_iter()
-        .filter(|&(a, b)| arc[b] - arc[a] >= 40.0)
+    turnprint::eval::revisits::events(&revisits, arc, 19, 40.0)
+        .into_iter()
+        .map(|e| (e.first, e.last))
         .collect()
 }
 
