@@ -15,14 +15,19 @@ use super::OnlineConfig;
 /// sides of it (3 periods: one strong-drift event fewer of 44; 6: the same
 /// events, more false candidates).
 const REGISTER_PERIODS: usize = 4;
-/// Least [`register::Registration::margin`] of an emitted placement over its
-/// best rival: a window that fits two places about as well is left to the
-/// later windows. 1.1 since the fifteenth session, whose narrower reach
-/// holds fewer rival places: strong drift, seeds 1-40, 320 -> 338 of 440
-/// events against 1.2, seeds 41-60 (never run before) 154 -> 163 of 220, at
-/// 18 % more candidates (ground truth 144 -> 151, share 0.78 -> 0.75). At
-/// 1.3, 290 of 440; with no margin at all, 279 of 320 placements on the
-/// strong-drift runs were wrong (thirteenth session).
+/// Least [`register::Registration::margin`] of a placement over its best
+/// rival to be emitted alone. Below it the window fits two places about as
+/// well, most often a straight slid along its road (a sixth of the window or
+/// more) or the same turn on two look-alike roads: both are grown and
+/// emitted, and the verifier's keyframes tell which one is right. Until the
+/// seventeenth session such a window was left to the later windows:
+/// strong drift, seeds 1-40, 366 -> 387 of 440 events with both emitted,
+/// 5000 -> 6866 candidates (share 0.38 -> 0.34); seeds 41-80 (held out)
+/// 358 -> 375; ground truth 164 -> 200 candidates, the same 11 events
+/// (share 0.74 -> 0.63). (1.1 since the fifteenth session: against 1.2,
+/// strong drift 320 -> 338 of 440 events; at 1.3, 290; with no margin at
+/// all, best alone, 279 of 320 placements on the strong-drift runs were
+/// wrong, thirteenth session.)
 pub const REGISTER_MARGIN: f64 = 1.1;
 /// Probe periods between two network registrations at least: a segment's
 /// end and a periodic probe can come a few samples apart, and their windows
@@ -33,32 +38,32 @@ const REGISTER_EVERY: usize = 1;
 /// The newest stretch registered onto the map's road network
 /// ([`register`]), for a probe that found a road but no candidate (a
 /// proximity candidate short of the cut aside; with the drifting map's
-/// search on): verified from the registered placement, emitted as the drift
-/// probe's.
+/// search on): verified from the registered place, and from its rival when
+/// the margin is short of [`REGISTER_MARGIN`], emitted as the drift probe's.
 pub fn register_newest(
     h: &History,
     searcher: &mut Searcher,
     frame: &Frame,
     probed: &Probed,
     config: &OnlineConfig,
-) -> Option<Found> {
-    let prior = config.pipeline.drift_prior.as_ref()?;
-    let spatial = searcher.spatial.as_ref()?;
-    if config.drift_radius() <= 0.0 {
-        return None;
-    }
+) -> Vec<Found> {
+    let (Some(prior), Some(spatial)) = (&config.pipeline.drift_prior, &searcher.spatial) else {
+        return Vec::new();
+    };
     let g1 = probed.query()[1];
-    let g0 = g1.checked_sub(REGISTER_PERIODS * config.probe_every)?;
+    let Some(g0) = g1.checked_sub(REGISTER_PERIODS * config.probe_every) else {
+        return Vec::new();
+    };
     let recent = searcher
         .last_registered
         .is_some_and(|last| g1 < last + REGISTER_EVERY * config.probe_every);
     let length = h.s[g1] - h.s[g0];
-    if recent || length <= 0.0 {
-        return None;
+    if config.drift_radius() <= 0.0 || recent || length <= 0.0 {
+        return Vec::new();
     }
     // Every window is placed, straight or turning: a straight slides along
-    // its road, and its rival places along the road hold its margin near 1
-    // (`register::RIVAL_BANDS`). A gate on the window's turning (half a
+    // its road, its rival places along the road hold its margin near 1
+    // (`register::RIVAL_BANDS`), and both places are grown. A gate on the window's turning (half a
     // radian until the fifteenth session) saved registrations that the
     // narrower reach now pays for: KITTI 00's ground truth 13 -> 22 calls,
     // 172.7 M -> 187.1 M worker instructions (the fourteenth session's
@@ -74,21 +79,26 @@ pub fn register_newest(
         spatial,
         frame.step,
     );
-    let placed = register::register(h, spatial, g0, g1, &bounds, prior)?;
-    if placed.margin < REGISTER_MARGIN {
-        return None;
-    }
+    let Some(placed) = register::register(h, spatial, g0, g1, &bounds, prior) else {
+        return Vec::new();
+    };
+    let rival = placed.rival.filter(|_| placed.margin < REGISTER_MARGIN);
     let room = g1 - g0;
-    let t_range = [placed.target.saturating_sub(room), placed.target + room];
-    grow_seeded(
-        h,
-        frame,
-        config,
-        [g0, g1],
-        [g0, g1],
-        t_range,
-        [placed.sim],
-        Source::Network,
-    )
-    .filter(|f| emitted(f, config, frame.step))
+    std::iter::once(placed.place)
+        .chain(rival)
+        .filter_map(|place| {
+            let t_range = [place.target.saturating_sub(room), place.target + room];
+            grow_seeded(
+                h,
+                frame,
+                config,
+                [g0, g1],
+                [g0, g1],
+                t_range,
+                [place.sim],
+                Source::Network,
+            )
+        })
+        .filter(|f| emitted(f, config, frame.step))
+        .collect()
 }

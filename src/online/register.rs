@@ -59,14 +59,21 @@ const TOP_REFINED: usize = 3;
 /// Refit rounds of every checked placement, and of the best few.
 const ROUNDS: (usize, usize) = (1, 3);
 
-/// A placement of the window on the map.
+/// Where a placement lays the window.
 #[derive(Debug, Clone, Copy)]
-pub struct Registration {
+pub struct Place {
     /// `history_T_window`: the window's points onto the map (one frame, so
     /// near identity up to drift).
     pub sim: Similarity2,
     /// Map sample the window's middle lands on.
     pub target: usize,
+}
+
+/// A placement of the window on the map.
+#[derive(Debug, Clone, Copy)]
+pub struct Registration {
+    /// The best place.
+    pub place: Place,
     /// Turning-weighted share of the window points within the band.
     pub support: f64,
     /// Drift-prior factor of the placement.
@@ -77,6 +84,8 @@ pub struct Registration {
     /// of the window): infinite when there is none. A straight window
     /// slides along its road: margin near 1.
     pub margin: f64,
+    /// The best rival place, the one the margin is over.
+    pub rival: Option<Place>,
 }
 
 /// Where the drift allows the window to lie.
@@ -453,11 +462,11 @@ pub fn register(
         Some((
             support * factor.sqrt(),
             Registration {
-                sim: *sim,
-                target,
+                place: Place { sim: *sim, target },
                 support,
                 prior: factor,
                 margin: f64::INFINITY,
+                rival: None,
             },
         ))
     };
@@ -481,7 +490,7 @@ pub fn register(
     placements.sort_by(|a, b| b.0.total_cmp(&a.0));
     for placement in placements.iter_mut().take(TOP_REFINED) {
         let on = std::mem::take(&mut placement.2);
-        let (sim, on) = window.refine(&map, placement.1.sim, on, ROUNDS.1 - ROUNDS.0);
+        let (sim, on) = window.refine(&map, placement.1.place.sim, on, ROUNDS.1 - ROUNDS.0);
         if let Some((s, r)) = score(&sim, on.support) {
             *placement = (s, r, on);
         }
@@ -489,12 +498,14 @@ pub fn register(
     placements.sort_by(|a, b| b.0.total_cmp(&a.0));
     let (best_score, mut best) = placements.first().map(|p| (p.0, p.1))?;
     let mid = window.points[POINTS / 2].0;
+    let at = best.place.sim;
     let rival = placements.iter().skip(1).find(|(_, r, _)| {
-        axial(r.sim.angle - best.sim.angle).abs() > ANGLE_BIN
-            || (r.sim.apply(&mid) - best.sim.apply(&mid)).norm() > RIVAL_BANDS as f64 * band
+        axial(r.place.sim.angle - at.angle).abs() > ANGLE_BIN
+            || (r.place.sim.apply(&mid) - at.apply(&mid)).norm() > RIVAL_BANDS as f64 * band
     });
-    if let Some((rival_score, _, _)) = rival {
+    if let Some((rival_score, r, _)) = rival {
         best.margin = best_score / rival_score.max(f64::MIN_POSITIVE);
+        best.rival = Some(r.place);
     }
     Some(best)
 }
@@ -644,12 +655,12 @@ mod tests {
         // Every window point back on the network, and a point by the
         // junction back where it was: the drift undone.
         for g in range[0]..=range[1] {
-            let p = reg.sim.apply(&h.point(g));
+            let p = reg.place.sim.apply(&h.point(g));
             assert!(off_network(&p) <= band, "{p:?} off the roads ({reg:?})");
         }
         let junction = drifted(&Vector2::new(5.0, 5.0), angle, shift);
         assert!(
-            (reg.sim.apply(&junction) - Vector2::new(5.0, 5.0)).norm() <= 2.0 * band,
+            (reg.place.sim.apply(&junction) - Vector2::new(5.0, 5.0)).norm() <= 2.0 * band,
             "{reg:?}"
         );
         assert!(reg.support > 0.9 && reg.margin >= 1.5, "{reg:?}");
