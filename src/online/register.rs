@@ -498,10 +498,10 @@ pub fn register(
     placements.sort_by(|a, b| b.0.total_cmp(&a.0));
     let (best_score, mut best) = placements.first().map(|p| (p.0, p.1))?;
     let mid = window.points[POINTS / 2].0;
-    let at = best.place.sim;
     let rival = placements.iter().skip(1).find(|(_, r, _)| {
-        axial(r.place.sim.angle - at.angle).abs() > ANGLE_BIN
-            || (r.place.sim.apply(&mid) - at.apply(&mid)).norm() > RIVAL_BANDS as f64 * band
+        axial(r.place.sim.angle - best.place.sim.angle).abs() > ANGLE_BIN
+            || (r.place.sim.apply(&mid) - best.place.sim.apply(&mid)).norm()
+                > RIVAL_BANDS as f64 * band
     });
     if let Some((rival_score, r, _)) = rival {
         best.margin = best_score / rival_score.max(f64::MIN_POSITIVE);
@@ -683,9 +683,18 @@ mod tests {
         let later = road(&[(-120.0, 0.0), (-20.0, 0.0)]);
         let (h, spatial, range) = drive(&later, 2f64.to_radians(), Vector2::new(30.0, 6.0));
         let reg = place(&h, &spatial, range).expect("a placement");
-        // On the road, but any slide along it fits as well.
+        // On the road, but any slide along it fits as well: the rival is
+        // the same road, slid along it by a quarter of the window or more.
         assert!(reg.support > 0.9, "{reg:?}");
         assert!(reg.margin < REGISTER_MARGIN, "{reg:?}");
+        let rival = reg.rival.expect("a rival place");
+        let [a, b] = [reg.place, rival].map(|p| p.sim.apply(&h.point((range[0] + range[1]) / 2)));
+        let band = BAND_FRACTION * (h.s[range[1]] - h.s[range[0]]);
+        assert!((a.y - b.y).abs() <= band, "{a:?} and {b:?} on one road");
+        assert!(
+            (a.x - b.x).abs() >= RIVAL_BANDS as f64 * band,
+            "{a:?} and {b:?}"
+        );
     }
 
     #[test]
