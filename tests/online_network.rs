@@ -136,3 +136,30 @@ fn roads_that_no_similarity_fits_are_registered() {
 fn a_placement_short_of_its_margin_is_emitted_with_its_rival() {
     placed_on_the_network("tests/data/05.txt", 4, [2322, 2523], 2600);
 }
+
+/// The rival place comes after the ranking of a segment's candidates, and
+/// with `top_k` 1 it made two candidates in one call (KITTI 05, seed 4, at
+/// frame 2484): the placement and its rival count against `top_k` too.
+#[test]
+fn a_placement_and_its_rival_count_against_top_k() {
+    let truth = read_trajectory(Path::new("tests/data/05.txt"), Format::Kitti)
+        .expect("05")
+        .positions();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(4);
+    let drifted: Vec<Vector3<f64>> = DriftModel::strong().apply(&truth, &mut rng);
+    let per_call = |top_k: usize| {
+        let config = OnlineConfig {
+            top_k,
+            ..OnlineConfig::default()
+        };
+        let out = common::emitted_candidates(&drifted[..2600], config);
+        let mut at: Vec<usize> = out.iter().map(|c| c.at_pose).collect();
+        at.sort_unstable();
+        at.chunk_by(|a, b| a == b)
+            .map(<[usize]>::len)
+            .max()
+            .unwrap_or(0)
+    };
+    assert!(per_call(3) >= 2, "the pair is emitted at the default top_k");
+    assert_eq!(per_call(1), 1);
+}

@@ -237,6 +237,12 @@ impl WorkerState {
                 probed,
                 &self.config,
             ));
+            // The registration adds up to two places after the ranking:
+            // still at most `top_k` candidates, the best scores first.
+            if found.len() > self.config.top_k {
+                found.sort_by(|a, b| b.hypothesis.score.total_cmp(&a.hypothesis.score));
+                found.truncate(self.config.top_k);
+            }
         }
         let mut events = Vec::new();
         for f in found {
