@@ -14,15 +14,22 @@ use turnprint::online::{OnlineConfig, Source};
 
 mod common;
 
-/// Whether the network registration places the revisit `frames` of the
-/// KITTI ground truth `file` under the strong drift model, `seed`
-/// (streaming the first `poses`).
-fn placed_on_the_network(file: &str, seed: u64, frames: [usize; 2], poses: usize) {
+/// The KITTI ground truth `file` and the same under the strong drift
+/// model, `seed`.
+fn truth_and_drifted(file: &str, seed: u64) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
     let truth = read_trajectory(Path::new(file), Format::Kitti)
         .expect(file)
         .positions();
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let drifted: Vec<Vector3<f64>> = DriftModel::strong().apply(&truth, &mut rng);
+    let drifted = DriftModel::strong().apply(&truth, &mut rng);
+    (truth, drifted)
+}
+
+/// Whether the network registration places the revisit `frames` of the
+/// KITTI ground truth `file` under the strong drift model, `seed`
+/// (streaming the first `poses`).
+fn placed_on_the_network(file: &str, seed: u64, frames: [usize; 2], poses: usize) {
+    let (truth, drifted) = truth_and_drifted(file, seed);
     let out = common::emitted_candidates(&drifted[..poses], OnlineConfig::default());
     let placed = out.iter().find(|c| {
         let h = &c.hypothesis;
@@ -142,11 +149,7 @@ fn a_placement_short_of_its_margin_is_emitted_with_its_rival() {
 /// frame 2484): the placement and its rival count against `top_k` too.
 #[test]
 fn a_placement_and_its_rival_count_against_top_k() {
-    let truth = read_trajectory(Path::new("tests/data/05.txt"), Format::Kitti)
-        .expect("05")
-        .positions();
-    let mut rng = rand::rngs::StdRng::seed_from_u64(4);
-    let drifted: Vec<Vector3<f64>> = DriftModel::strong().apply(&truth, &mut rng);
+    let (_, drifted) = truth_and_drifted("tests/data/05.txt", 4);
     let per_call = |top_k: usize| {
         let config = OnlineConfig {
             top_k,
