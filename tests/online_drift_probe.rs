@@ -1,8 +1,9 @@
 //! `OnlineConfig::drift_probe`: where the consistent map's proximity probe
 //! finds nothing near, a second probe whose radius grows with the path
-//! between the two parts. On KITTI 08 under strong drift (seed 2), and on
-//! 08's monocular estimate, which ORB-SLAM2 never closed, the detector
-//! without it emits no correct candidate; with it (the default) it does.
+//! between the two parts. On KITTI 08 under strong drift (seed 2) the
+//! detector without it emits one correct candidate, with it (the default)
+//! seven; on 08's monocular estimate, which ORB-SLAM2 never closed, none
+//! without it.
 
 #![cfg(feature = "eval")]
 
@@ -64,8 +65,13 @@ fn drift_probe_finds_revisits_of_a_strongly_drifting_map() {
     let (truth, drifted) = truth_and_drifted("08", 1.0, 2);
     let (without, _) = correct_of(&drifted, &truth, false);
     let (with, emitted) = correct_of(&drifted, &truth, true);
-    assert_eq!(without, 0);
-    assert!(with >= 2, "{with} correct of {emitted}");
+    // Without it, only the straight revisit that the drift left near (the
+    // last test) is found.
+    assert!(without <= 1, "{without} correct without the drifting probe");
+    assert!(
+        with >= without + 2,
+        "{with} correct of {emitted} with it, {without} without"
+    );
 }
 
 /// KITTI 08's monocular estimate revisits its earlier pass about 90 steps
@@ -120,5 +126,19 @@ fn a_slightly_drifted_revisit_grows_from_the_probe_fit() {
 #[test]
 fn a_straight_revisit_found_near_is_emitted() {
     let (truth, drifted) = truth_and_drifted("08", 1.0, 2);
+    found_at(&drifted[..1600], &truth, [1399, 1514]);
+}
+
+/// KITTI 08 under the strong drift model (seed 34), the same straight
+/// revisit: the drift has turned the passes a few degrees apart, so they
+/// are 1-5 m apart where the probe looks and the identity grows nothing.
+/// The seed's second start, the similarity fit of the probe points onto
+/// their nearest points, shrank the window (nearest points on a road at an
+/// angle do not measure scale), and the growth ended at that scale with a
+/// score near 0. It now keeps the map's own scale
+/// (`proximity::consistent_start`).
+#[test]
+fn a_straight_revisit_turned_apart_grows_at_the_maps_scale() {
+    let (truth, drifted) = truth_and_drifted("08", 1.0, 34);
     found_at(&drifted[..1600], &truth, [1399, 1514]);
 }

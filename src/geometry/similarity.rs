@@ -55,6 +55,24 @@ impl Similarity2 {
     /// argument and modulus of `sum w conj(b') a'` over centred points).
     /// Returns `None` when the b points are all at one place.
     pub fn fit(pairs: &[(Vector2<f64>, Vector2<f64>)], weights: Option<&[f64]>) -> Option<Self> {
+        Self::fit_with(pairs, weights, false)
+    }
+
+    /// [`Similarity2::fit`] with the scale held at 1: the rotation is the
+    /// same argument of `sum w conj(b') a'`, the translation maps the b
+    /// centroid onto the a centroid. For pairs that fix no scale, such as
+    /// points and their nearest points on a straight road crossing theirs
+    /// at a small angle (the projection shrinks the points along the road
+    /// by its cosine, and points past the road's end collapse onto it).
+    pub fn fit_rigid(pairs: &[(Vector2<f64>, Vector2<f64>)]) -> Option<Self> {
+        Self::fit_with(pairs, None, true)
+    }
+
+    fn fit_with(
+        pairs: &[(Vector2<f64>, Vector2<f64>)],
+        weights: Option<&[f64]>,
+        rigid: bool,
+    ) -> Option<Self> {
         let w_of = |i: usize| weights.map_or(1.0, |w| w[i]);
         let mut w_sum = 0.0;
         let (mut ca, mut cb) = (Vector2::zeros(), Vector2::zeros());
@@ -80,7 +98,10 @@ impl Similarity2 {
         if var_b <= f64::MIN_POSITIVE || !(dot.is_finite() && cross.is_finite()) {
             return None;
         }
-        let scale = dot.hypot(cross) / var_b;
+        let scale = match rigid {
+            true => 1.0,
+            false => dot.hypot(cross) / var_b,
+        };
         if !(scale > 0.0 && scale.is_finite()) {
             return None;
         }
@@ -207,4 +228,69 @@ pub fn angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
     (((a * b.transpose()).trace() - 1.0) / 2.0)
         .clamp(-1.0, 1.0)
         .acos()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points along a gently winding road (not collinear).
+    fn road() -> Vec<Vector2<f64>> {
+        (0..20)
+            .map(|i| {
+                let t = i as f64;
+                Vector2::new(t, 3.0 * (t / 4.0).sin())
+            })
+            .collect()
+    }
+
+    #[allow(non_snake_case)]
+    fn pairs_under(a_T_b: &Similarity2) -> Vec<(Vector2<f64>, Vector2<f64>)> {
+        road().into_iter().map(|p| (a_T_b.apply(&p), p)).collect()
+    }
+
+    #[test]
+    #[allow(non_snake_case)]
+    fn fits_recover_the_transform_that_made_the_pairs() {
+        let a_T_b = Similarity2 {
+            scale: 1.7,
+            angle: 0.4,
+            translation: Vector2::new(-3.0, 8.0),
+        };
+        let fit = Similarity2::fit(&pairs_under(&a_T_b), None).expect("spread points");
+        let rigid_a_T_b = Similarity2 {
+            scale: 1.0,
+            ..a_T_b
+        };
+        let rigid = Similarity2::fit_rigid(&pairs_under(&rigid_a_T_b)).expect("spread points");
+        for (got, want) in [(fit, a_T_b), (rigid, rigid_a_T_b)] {
+            assert!((got.scale - want.scale).abs() < 1e-12, "{got:?}");
+            assert!((got.angle - want.angle).abs() < 1e-12, "{got:?}");
+            assert!(
+                (got.translation - want.translation).norm() < 1e-12,
+                "{got:?}"
+            );
+        }
+    }
+
+    /// Points of a straight and their nearest points on a straight crossing
+    /// it at 20 degrees: the projection shrinks them by the cosine, so the
+    /// similarity fit's scale falls below 1; the rigid fit keeps 1 and still
+    /// turns the points towards the other road.
+    #[test]
+    fn the_rigid_fit_keeps_the_scale_where_nearest_points_shrink_it() {
+        let (sin, cos) = 20f64.to_radians().sin_cos();
+        let pairs: Vec<_> = (0..8)
+            .map(|i| {
+                let b = Vector2::new(5.0 * i as f64, 0.0);
+                let along = b.dot(&Vector2::new(cos, sin));
+                (along * Vector2::new(cos, sin), b)
+            })
+            .collect();
+        let fit = Similarity2::fit(&pairs, None).expect("spread points");
+        let rigid = Similarity2::fit_rigid(&pairs).expect("spread points");
+        assert!(fit.scale < 0.95, "{fit:?}");
+        assert_eq!(rigid.scale, 1.0);
+        assert!((rigid.angle - fit.angle).abs() < 1e-12 && rigid.angle > 0.0);
+    }
 }
