@@ -166,3 +166,15 @@ fn a_placement_and_its_rival_count_against_top_k() {
     assert!(per_call(3) >= 2, "the pair is emitted at the default top_k");
     assert_eq!(per_call(1), 1);
 }
+
+/// KITTI 02 under the strong drift model (seed 3), frames 4185-4274 (over
+/// about 920-1030, 129 m away after the drift). The registration of the
+/// windows before it placed them on the straight they had just driven, a
+/// window length behind, whose every point lies on a road: the reach was
+/// the same for every map sample, the drift allowed near the earlier pass.
+/// That placement grew nothing and used up each probe period. The reach
+/// now grows with the path between the window and each sample.
+#[test]
+fn the_road_just_driven_does_not_take_the_registration() {
+    placed_on_the_network("tests/data/02.txt", 3, [4185, 4274], 4300);
+}
