@@ -131,7 +131,7 @@ fn a_straight_revisit_found_near_is_emitted() {
 
 /// KITTI 08 under the strong drift model (seed 34), the same straight
 /// revisit: the drift has turned the passes a few degrees apart, so they
-/// are 1-5 m apart where the probe looks and the identity grows nothing.
+/// are 5-8 m apart where the probe looks and the identity grows nothing.
 /// The seed's second start, the similarity fit of the probe points onto
 /// their nearest points, shrank the window (nearest points on a road at an
 /// angle do not measure scale), and the growth ended at that scale with a

@@ -143,7 +143,7 @@ pub fn drifted_start(pairs: &[(Vector2<f64>, Vector2<f64>)], length: f64) -> Opt
 /// nearest points do not measure it: on a straight revisit whose passes
 /// the drift has turned a few degrees apart, the similarity fit shrank the
 /// window by a third and the growth from it ended at that scale (KITTI 08,
-/// strong drift, seed 12: 1-2 m apart, scale 1.49, score 0.003). Strong
+/// strong drift, seed 12: 3-11 m apart, scale 1.49, score 0.003). Strong
 /// drift, seeds 1-40: 382 -> 387 of 440 events (held out, seeds 41-80: 368,
 /// the same).
 pub fn consistent_start(
