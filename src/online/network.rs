@@ -18,9 +18,10 @@ const REGISTER_PERIODS: usize = 4;
 /// Least [`register::Registration::margin`] of a placement over its best
 /// rival to be emitted alone. Below it the window fits two places about as
 /// well, most often a straight slid along its road by a quarter of the
-/// window or more ([`register::RIVAL_BANDS`]). Where the probe found the road only with the drifting map's
-/// radius, the drift prior cannot tell such places apart: both are grown
-/// and emitted, and the verifier's keyframes tell which one is right
+/// window or more ([`register::RIVAL_BANDS`]). Where the probe found the
+/// road only with the drifting map's radius, the drift prior cannot tell
+/// such places apart: both are grown and emitted, and the verifier's
+/// keyframes tell which one is right
 /// (seventeenth session: strong drift, seeds 1-40, 366 -> 382 of 440
 /// events, 5000 -> 6232 candidates, share 0.38 -> 0.35; seeds 41-80, held
 /// out, 358 -> 368; ground truth 164 -> 193 candidates, the same 11 events,
