@@ -60,8 +60,8 @@ pub struct OnlineConfig {
     /// Where it finds a road but nothing is emitted (a proximity candidate
     /// below the cut, emitted by this probe's rules, aside), the newest
     /// stretch is also placed on the whole road network
-    /// ([`super::network`]; strong drift 18 -> 37 of 44 events, 391 of 440
-    /// over seeds 1-40; share on ground truth 0.89 -> 0.63).
+    /// ([`super::network`]; strong drift 18 -> 37 of 44 events, 397 of 440
+    /// over seeds 1-40; share on ground truth 0.89 -> 0.62).
     pub drift_probe: bool,
     /// Between segments, probe the proximity every this many new track
     /// samples (half typical steps), over the newest twice as many.
