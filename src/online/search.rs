@@ -31,7 +31,7 @@ const DRIFT_SCALE: f64 = 1.5;
 /// monocular estimate such stubs (12-15 poses, 0.4-0.5 of a window once
 /// growth follows the road) paired the racetrack's two straights, 16-46 m
 /// apart, which fisheye cameras facing opposite ways confirmed (regression
-/// `stream_verify`). Half a window keeps them out. Two thirds (until the
+/// `stream_verify`, which passes at half a window). Two thirds (until the
 /// nineteenth session) also lost KITTI 08's reversed straight revisit
 /// under strong drift: the drift bends the two passes apart along it, and
 /// growth ends at 0.51-0.64 of a window, scoring up to 0.23 at the map's
