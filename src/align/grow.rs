@@ -92,6 +92,36 @@ pub fn grow_and_refit(
     config: &GrowConfig,
     allowed: &dyn Fn(usize, f64) -> bool,
 ) -> Option<Overlap> {
+    grow_and_refit_while(
+        target,
+        target_poly,
+        query,
+        query_xy,
+        seed,
+        a_T_b,
+        config,
+        allowed,
+        &|_| true,
+    )
+}
+
+/// [`grow_and_refit`], asking `promising` once, after the first round,
+/// whether the overlap is worth the rounds that follow (they cost most):
+/// `None` when it is not. The rounds are the same either way, so an overlap
+/// that goes on growing ends as [`grow_and_refit`]'s.
+#[allow(non_snake_case)]
+#[allow(clippy::too_many_arguments)]
+pub fn grow_and_refit_while(
+    target: &Track,
+    target_poly: &Polyline2,
+    query: &Track,
+    query_xy: &[Vector2<f64>],
+    seed: [usize; 2],
+    a_T_b: Similarity2,
+    config: &GrowConfig,
+    allowed: &dyn Fn(usize, f64) -> bool,
+    promising: &dyn Fn(&Overlap) -> bool,
+) -> Option<Overlap> {
     let n = query_xy.len();
     if n < 2 || seed[1] <= seed[0] {
         return None;
@@ -103,7 +133,7 @@ pub fn grow_and_refit(
     let mut range = [seed[0], seed[1].min(n - 1)];
     let mut result = None;
     let mut last_rmse = f64::INFINITY;
-    for _ in 0..config.rounds {
+    for round in 0..config.rounds {
         let length = sim.scale * (query.s[range[1]] - query.s[range[0]]);
         // The first round accepts the seed's rough fit; later rounds tighten
         // to a few times the residual reached, so the fit converges like ICP
@@ -248,6 +278,9 @@ pub fn grow_and_refit(
         });
         if converged {
             break;
+        }
+        if round == 0 && !result.as_ref().is_some_and(promising) {
+            return None;
         }
     }
     result
@@ -473,5 +506,65 @@ mod tests {
             "{:?}",
             overlap.a_T_b
         );
+    }
+
+    /// The question after the first round changes nothing but whether the
+    /// rounds go on: answered yes, the overlap is the one grown without
+    /// it; answered no, there is none, and it is asked once.
+    #[test]
+    fn the_first_round_question_stops_or_changes_nothing() {
+        let road: Vec<Vector2<f64>> = (0..800)
+            .map(|i| {
+                let t = i as f64 * 0.5;
+                Vector2::new(t, 10.0 * (t / 15.0).sin() + 4.0 * (t / 7.0).cos())
+            })
+            .collect();
+        let target = Track::build(&road).expect("a moving path");
+        let polyline = Polyline2::new(&target.xy);
+        let n = target.xy.len();
+        let rough = Similarity2 {
+            scale: 1.002,
+            angle: 0.0005,
+            ..Similarity2::identity()
+        };
+        let grow_asking = |answer: bool, asked: &std::cell::Cell<usize>| {
+            grow_and_refit_while(
+                &target,
+                &polyline,
+                &target,
+                &target.xy,
+                [n / 2 - 20, n / 2 + 20],
+                rough,
+                &GrowConfig::default(),
+                &|_, _| true,
+                &|_| {
+                    asked.set(asked.get() + 1);
+                    answer
+                },
+            )
+        };
+        let plain = grow(
+            &target,
+            &target,
+            [n / 2 - 20, n / 2 + 20],
+            rough,
+            &GrowConfig::default(),
+        )
+        .expect("the seed lies on the road");
+        let asked = std::cell::Cell::new(0);
+        let yes = grow_asking(true, &asked).expect("the seed lies on the road");
+        assert_eq!(asked.get(), 1);
+        assert_eq!(
+            (yes.query, yes.pairs.len(), yes.a_T_b.scale, yes.rmse),
+            (
+                plain.query,
+                plain.pairs.len(),
+                plain.a_T_b.scale,
+                plain.rmse
+            )
+        );
+        let asked = std::cell::Cell::new(0);
+        assert!(grow_asking(false, &asked).is_none());
+        assert_eq!(asked.get(), 1);
     }
 }

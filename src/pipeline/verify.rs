@@ -5,7 +5,7 @@ use nalgebra::Vector2;
 
 use super::{Config, PreparedPath};
 use crate::align::ransac::SplitMix;
-use crate::align::{grow_and_refit, ransac_similarity, Overlap};
+use crate::align::{grow_and_refit, grow_and_refit_while, ransac_similarity, Overlap};
 use crate::geometry::Similarity2;
 use crate::matching::{Candidate, Orientation};
 use crate::score::Evidence;
@@ -27,8 +27,10 @@ pub struct Verified {
 /// `gate` sees the RANSAC similarity (query -> target) and its sample pairs
 /// (target point, query point) and can stop before the costly growth: a
 /// caller that knows no similarity like it can score high enough says so
-/// there (`&|_, _| true` otherwise).
-#[allow(clippy::type_complexity)]
+/// there (`&|_, _| true` otherwise). `promising` sees the candidate as the
+/// first grow round leaves it and can stop the rounds that follow
+/// ([`grow_and_refit_while`]; `&|_| true` otherwise).
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn verify(
     target: &PreparedPath,
     query: &PreparedPath,
@@ -37,6 +39,7 @@ pub fn verify(
     config: &Config,
     allowed: &dyn Fn(usize, f64) -> bool,
     gate: &dyn Fn(&Similarity2, &[(Vector2<f64>, Vector2<f64>)]) -> bool,
+    promising: &dyn Fn(&Verified) -> bool,
 ) -> Option<Verified> {
     let (ts, qs) = (&target.signature, &query.signature);
     let (a_t_b, pairs) = seed_similarity(
@@ -60,7 +63,16 @@ pub fn verify(
         qs.grid[cand.seed[0]].floor() as usize,
         (qs.grid[cand.seed[1]].ceil() as usize).min(query_xy.len() - 1),
     ];
-    let overlap = grow_and_refit(
+    // The seed's ZNCC compares signatures each at its own resolution; the
+    // grown overlap knows the scale, and so a common one.
+    let verified = |overlap: Overlap| {
+        let negate = overlap.reversed != cand.orientation.mirrored;
+        let zncc = cand.zncc.max(overlap_zncc(target, query, &overlap, negate));
+        finish(target, query, query_xy, overlap, cand.clone(), zncc, config)
+    };
+    // An overlap too short to verify after one round may still grow.
+    let promising = |overlap: &Overlap| verified(overlap.clone()).is_none_or(|v| promising(&v));
+    let overlap = grow_and_refit_while(
         &target.track,
         &target.polyline,
         &query.track,
@@ -69,12 +81,9 @@ pub fn verify(
         a_t_b,
         &config.grow,
         allowed,
+        &promising,
     )?;
-    // The seed's ZNCC compares signatures each at its own resolution; the
-    // grown overlap knows the scale, and so a common one.
-    let negate = overlap.reversed != cand.orientation.mirrored;
-    let zncc = cand.zncc.max(overlap_zncc(target, query, &overlap, negate));
-    finish(target, query, query_xy, overlap, cand.clone(), zncc, config)
+    verified(overlap)
 }
 
 /// The RANSAC similarity (query -> target) of a candidate's seed samples,
@@ -124,7 +133,17 @@ pub fn verify_best(
     allowed: &dyn Fn(usize, f64) -> bool,
 ) -> Option<(Verified, f64)> {
     let scored = |c: &Candidate| {
-        verify(target, query, query_xy, c, config, allowed, &|_, _| true).map(|v| {
+        verify(
+            target,
+            query,
+            query_xy,
+            c,
+            config,
+            allowed,
+            &|_, _| true,
+            &|_| true,
+        )
+        .map(|v| {
             let s = crate::score::score(&v.evidence, &config.score);
             (v, s)
         })
