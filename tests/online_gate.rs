@@ -1,7 +1,9 @@
 //! The drift-prior gate (`OnlineConfig::prior_gate`) skips growing shape
-//! candidates whose prior bound cannot reach the score cut. It must never
-//! drop a candidate that would have been emitted: streaming real paths with
-//! the gate on and off emits the same candidates.
+//! candidates whose prior bound cannot reach the score cut, stops those
+//! that score far below it after the first grow round, and skips drifting
+//! starts whose scale growth cannot bring back. It must never drop a
+//! candidate that would have been emitted: streaming real paths with the
+//! gate on and off emits the same candidates.
 
 #![cfg(feature = "eval")]
 

@@ -9,7 +9,7 @@ use crate::geometry::{Polyline2, Similarity2};
 use crate::track::Track;
 
 /// Largest factor by which growing may change the seed's scale.
-const MAX_SCALE_CHANGE: f64 = 1.5;
+pub const MAX_SCALE_CHANGE: f64 = 1.5;
 
 /// Settings of growing and refitting.
 #[derive(Debug, Clone, Copy)]
