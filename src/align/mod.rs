@@ -7,7 +7,7 @@ pub mod lift;
 pub mod polish;
 pub mod ransac;
 
-pub use grow::{grow_and_refit, grow_and_refit_while, Overlap};
+pub use grow::{grow_and_refit, Overlap};
 pub use lift::refine_lift;
 pub use polish::{polish, search_window, RawPath};
 pub use ransac::ransac_similarity;

@@ -5,7 +5,7 @@ use nalgebra::Vector2;
 
 use super::{Config, PreparedPath};
 use crate::align::ransac::SplitMix;
-use crate::align::{grow_and_refit, grow_and_refit_while, ransac_similarity, Overlap};
+use crate::align::{grow_and_refit, ransac_similarity, Overlap};
 use crate::geometry::Similarity2;
 use crate::matching::{Candidate, Orientation};
 use crate::score::Evidence;
@@ -29,7 +29,7 @@ pub struct Verified {
 /// caller that knows no similarity like it can score high enough says so
 /// there (`&|_, _| true` otherwise). `promising` sees the candidate as the
 /// first grow round leaves it and can stop the rounds that follow
-/// ([`grow_and_refit_while`]; `&|_| true` otherwise).
+/// ([`grow_and_refit`]; `&|_| true` otherwise).
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn verify(
     target: &PreparedPath,
@@ -72,7 +72,7 @@ pub fn verify(
     };
     // An overlap too short to verify after one round may still grow.
     let promising = |overlap: &Overlap| verified(overlap.clone()).is_none_or(|v| promising(&v));
-    let overlap = grow_and_refit_while(
+    let overlap = grow_and_refit(
         &target.track,
         &target.polyline,
         &query.track,
@@ -186,6 +186,7 @@ pub fn verify_seeded(
         a_T_b,
         &config.grow,
         allowed,
+        &|_| true,
     )?;
     let reversed = overlap.reversed;
     let zncc = overlap_zncc(target, query, &overlap, reversed != mirrored);
