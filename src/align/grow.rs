@@ -435,18 +435,24 @@ mod tests {
         );
     }
 
+    /// 400 units of a road winding at two wavelengths, samples half a unit
+    /// apart.
+    fn winding_road() -> Vec<Vector2<f64>> {
+        (0..800)
+            .map(|i| {
+                let t = i as f64 * 0.5;
+                Vector2::new(t, 10.0 * (t / 15.0).sin() + 4.0 * (t / 7.0).cos())
+            })
+            .collect()
+    }
+
     /// Striding a round's inside points (`points_per_round`) must not cost
     /// the fit: a copy of a winding road under a similarity, seeded slightly
     /// off, grows over the whole road and recovers the similarity.
     #[test]
     #[allow(non_snake_case)]
     fn a_capped_round_still_recovers_the_similarity() {
-        let road: Vec<Vector2<f64>> = (0..800)
-            .map(|i| {
-                let t = i as f64 * 0.5;
-                Vector2::new(t, 10.0 * (t / 15.0).sin() + 4.0 * (t / 7.0).cos())
-            })
-            .collect();
+        let road = winding_road();
         let target = Track::build(&road).expect("a moving path");
         let a_T_b = Similarity2 {
             scale: 2.0,
@@ -489,12 +495,7 @@ mod tests {
     /// rounds: answered no, there is no overlap; answered yes, the road.
     #[test]
     fn the_first_round_question_is_asked_once_and_stops_the_rounds() {
-        let road: Vec<Vector2<f64>> = (0..800)
-            .map(|i| {
-                let t = i as f64 * 0.5;
-                Vector2::new(t, 10.0 * (t / 15.0).sin() + 4.0 * (t / 7.0).cos())
-            })
-            .collect();
+        let road = winding_road();
         let target = Track::build(&road).expect("a moving path");
         let polyline = Polyline2::new(&target.xy);
         let n = target.xy.len();

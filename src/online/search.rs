@@ -401,12 +401,15 @@ fn verify_shape(
     // Of the rest, look-alikes show after the first grow round: scored as
     // they stand then, they lie far below the cut, true revisits near it.
     let promising = |v: &Verified| {
-        !config.prior_gate
-            || finish(h, &tw, &qw, v, frame, config, Source::Shape)
-                .is_some_and(|f| f.hypothesis.score >= FIRST_ROUND_CUT * config.min_score)
+        finish(h, &tw, &qw, v, frame, config, Source::Shape)
+            .is_some_and(|f| f.hypothesis.score >= FIRST_ROUND_CUT * config.min_score)
+    };
+    let promising: Option<&dyn Fn(&Verified) -> bool> = match config.prior_gate {
+        true => Some(&promising),
+        false => None,
     };
     let v = verify::verify(
-        &tw.path, &qw.path, &xy, &local, pc, &allowed, &gate, &promising,
+        &tw.path, &qw.path, &xy, &local, pc, &allowed, &gate, promising,
     )?;
     finish(h, &tw, &qw, &v, frame, config, Source::Shape)
 }

@@ -27,9 +27,10 @@ pub struct Verified {
 /// `gate` sees the RANSAC similarity (query -> target) and its sample pairs
 /// (target point, query point) and can stop before the costly growth: a
 /// caller that knows no similarity like it can score high enough says so
-/// there (`&|_, _| true` otherwise). `promising` sees the candidate as the
-/// first grow round leaves it and can stop the rounds that follow
-/// ([`grow_and_refit`]; `&|_| true` otherwise).
+/// there (`&|_, _| true` otherwise). `promising`, if given, sees the
+/// candidate as the first grow round leaves it and can stop the rounds
+/// that follow ([`grow_and_refit`]); without it no evidence is taken
+/// before the end.
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn verify(
     target: &PreparedPath,
@@ -39,7 +40,7 @@ pub fn verify(
     config: &Config,
     allowed: &dyn Fn(usize, f64) -> bool,
     gate: &dyn Fn(&Similarity2, &[(Vector2<f64>, Vector2<f64>)]) -> bool,
-    promising: &dyn Fn(&Verified) -> bool,
+    promising: Option<&dyn Fn(&Verified) -> bool>,
 ) -> Option<Verified> {
     let (ts, qs) = (&target.signature, &query.signature);
     let (a_t_b, pairs) = seed_similarity(
@@ -71,7 +72,9 @@ pub fn verify(
         finish(target, query, query_xy, overlap, cand.clone(), zncc, config)
     };
     // An overlap too short to verify after one round may still grow.
-    let promising = |overlap: &Overlap| verified(overlap.clone()).is_none_or(|v| promising(&v));
+    let promising = |overlap: &Overlap| {
+        promising.is_none_or(|promising| verified(overlap.clone()).is_none_or(|v| promising(&v)))
+    };
     let overlap = grow_and_refit(
         &target.track,
         &target.polyline,
@@ -141,7 +144,7 @@ pub fn verify_best(
             config,
             allowed,
             &|_, _| true,
-            &|_| true,
+            None,
         )
         .map(|v| {
             let s = crate::score::score(&v.evidence, &config.score);
