@@ -73,7 +73,9 @@ pub struct OnlineConfig {
     /// samples (half typical steps), over the newest twice as many.
     pub probe_every: usize,
     /// Messages the worker's queue holds before the caller starts merging
-    /// (see [`super::worker`] for the overflow policy).
+    /// (see [`super::worker`] for the overflow policy); with
+    /// [`super::Overflow::Block`] at least 64, as the caller then waits
+    /// instead of merging.
     pub queue_capacity: usize,
     /// A step longer than this many typical steps is a jump (GPS glitch,
     /// VO failure) and goes through the jump filter.
