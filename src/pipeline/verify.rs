@@ -119,7 +119,13 @@ pub fn seed_similarity(
     }
     let threshold = config.ransac_threshold * (s_max - s_min);
     let mut rng = SplitMix(salt ^ (cand.line as u64) ^ ((cand.query[0] as u64) << 20));
-    let (a_t_b, _) = ransac_similarity(&pairs, threshold, config.ransac_iterations, &mut rng)?;
+    let (a_t_b, _) = ransac_similarity(
+        &pairs,
+        threshold,
+        config.ransac_iterations,
+        config.ransac_confidence,
+        &mut rng,
+    )?;
     Some((a_t_b, pairs))
 }
 
