@@ -226,7 +226,8 @@ impl Detector {
                 // message it takes cost the worker 1.8 % of KITTI 00's
                 // stream, now 0.4 % (perf samples). The send after the
                 // word still blocks, so a stale word costs one wake, never
-                // a message.
+                // a message (and a live detector's last hand-over, which
+                // has no word to wait for, just blocks).
                 let sent = match tx.try_send(m) {
                     Err(TrySendError::Full(m)) => {
                         let _ = self.room.recv();

@@ -82,9 +82,8 @@ pub struct WorkerStats {
     pub sig_samples: u64,
 }
 
-/// Starts the worker thread.
-/// `room`, if any, hears once the queue is half empty (the replay's
-/// caller waits for it when the queue is full).
+/// Starts the worker thread. `room`, if any, hears once the queue is half
+/// empty (the replay's caller waits for that when the queue is full).
 pub fn spawn(
     config: OnlineConfig,
     rx: Receiver<Message>,
