@@ -73,9 +73,9 @@ pub struct OnlineConfig {
     /// samples (half typical steps), over the newest twice as many.
     pub probe_every: usize,
     /// Messages the worker's queue holds before the caller starts merging
-    /// (see [`super::worker`] for the overflow policy); with
-    /// [`super::Overflow::Block`] at least 64, as the caller then waits
-    /// instead of merging.
+    /// (see [`super::worker`] for the overflow policy). With
+    /// [`super::Overflow::Block`] the caller waits instead of merging, and
+    /// the queue is deeper (the worker module says how).
     pub queue_capacity: usize,
     /// A step longer than this many typical steps is a jump (GPS glitch,
     /// VO failure) and goes through the jump filter.

@@ -21,8 +21,9 @@ pub struct Config {
     // --- matching: N = 2..12 segments, 3 peaks per query, ZNCC ≥ 0.5.
     /// Part-to-part search settings.
     pub query: QueryConfig,
-    // --- alignment: 2-point RANSAC (threshold 4 % of the matched length),
-    // then grow/refit at 3 % of the matched length.
+    // --- alignment: 2-point RANSAC (threshold 4 % of the matched length,
+    // at most 64 hypotheses, fewer once 99.9 % sure), then grow/refit at
+    // 3 % of the matched length.
     /// RANSAC inlier threshold as a fraction of the matched target length.
     pub ransac_threshold: f64,
     /// RANSAC iterations per candidate, at most.
