@@ -172,14 +172,15 @@ fn main() {
         if std::env::var("SCORES").is_ok() {
             for (c, ok) in cands.iter().zip(&correct) {
                 eprintln!(
-                    "score {seq} {} {:.4} {} {} at {} q {:?} m {:?}",
+                    "score {seq} {} {:.4} {} {} at {} q {:?} m {:?} d {:.1}",
                     ok,
                     c.hypothesis.score,
                     c.source.name(),
                     c.hypothesis.reversed,
                     c.at_pose,
                     c.hypothesis.a_range,
-                    c.hypothesis.b_range
+                    c.hypothesis.b_range,
+                    median_gt_distance(c, &g)
                 );
             }
         }
@@ -262,6 +263,11 @@ fn revisit_events(g: &[Vector3<f64>], frames: &[usize], arc: &[f64]) -> Vec<(usi
 
 /// Median GT distance from the query poses to the nearest match pose ≤ 10 m.
 fn is_correct(c: &CandidateEvent, g: &[Vector3<f64>]) -> bool {
+    median_gt_distance(c, g) <= 10.0
+}
+
+/// Median GT distance from a candidate's query poses to its match range.
+fn median_gt_distance(c: &CandidateEvent, g: &[Vector3<f64>]) -> f64 {
     let h = &c.hypothesis;
     let clamp = |i: usize| i.min(g.len() - 1);
     let (q0, q1) = (clamp(h.a_range[0]), clamp(h.a_range[1]));
@@ -276,7 +282,7 @@ fn is_correct(c: &CandidateEvent, g: &[Vector3<f64>]) -> bool {
         })
         .collect();
     d.sort_by(f64::total_cmp);
-    !d.is_empty() && d[d.len() / 2] <= 10.0
+    d.get(d.len() / 2).copied().unwrap_or(f64::INFINITY)
 }
 
 /// ORB-SLAM2 estimate paired to GT frames by timestamp.

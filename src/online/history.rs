@@ -169,12 +169,11 @@ impl History {
             signature.s.push(Track::interp(&track.s, grid));
             signature.grid.push(grid);
         }
-        let bounds = self
-            .bounds
-            .iter()
-            .filter(|&&b| b >= sig0 && b < sig1)
-            .map(|&b| b - sig0)
-            .collect();
+        // Boundaries increase: the window's are one run, found by bisection
+        // (a scan of every boundary grew with the history).
+        let b0 = self.bounds.partition_point(|&b| b < sig0);
+        let b1 = self.bounds.partition_point(|&b| b < sig1).max(b0);
+        let bounds = self.bounds[b0..b1].iter().map(|&b| b - sig0).collect();
         let polyline = Polyline2::window(&track.xy, self.index.clone(), g0);
         Some(Window {
             path: PreparedPath {

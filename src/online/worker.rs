@@ -162,7 +162,9 @@ impl WorkerState {
         let new = bounds.len();
         let mut events = Vec::new();
         for (i, &b) in bounds.iter().enumerate() {
-            if self.history.bounds.last() == Some(&b) {
+            // A boundary already held is not new: the history's boundaries
+            // stay increasing, which `History::window` bisects on.
+            if self.history.bounds.last().is_some_and(|&l| l >= b) {
                 continue;
             }
             self.history.bounds.push(b);
