@@ -121,7 +121,7 @@ fn match_segment_on(c: &mut Criterion, name: &str, points: &[Vector3<f64>]) {
     let mut state = WorkerState::new(config.clone());
     // The whole history as one merged message: only its newest segment is
     // matched (and the last pieces cached).
-    state.take(Message {
+    state.take(&Message {
         earlier: Vec::new(),
         out,
         at_pose: points.len() - 1,
@@ -182,14 +182,16 @@ fn stream(c: &mut Criterion) {
     let mut g = c.benchmark_group("online");
     g.throughput(Throughput::Elements(points.len() as u64));
     g.sample_size(20);
-    for (name, drift_probe) in [
-        ("stream_kitti_00", true),
-        ("stream_kitti_00_no_drift_probe", false),
+    for (name, drift_probe, workers) in [
+        ("stream_kitti_00", true, 1),
+        ("stream_kitti_00_two_workers", true, 2),
+        ("stream_kitti_00_no_drift_probe", false, 1),
     ] {
         g.bench_function(name, |b| {
             b.iter(|| {
                 let config = OnlineConfig {
                     drift_probe,
+                    workers,
                     ..Default::default()
                 };
                 let mut d = Detector::new(config, Overflow::Block);

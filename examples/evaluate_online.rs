@@ -22,7 +22,8 @@
 //! the log-scale walk to x per sqrt(m)).
 //! `MIN_SCORE=x` sets `OnlineConfig::min_score`, `DRIFT_MIN_SCORE=x`
 //! `OnlineConfig::drift_min_score`; `DRIFT_PROBE=0` turns off
-//! `OnlineConfig::drift_probe` (on by default).
+//! `OnlineConfig::drift_probe` (on by default); `WORKERS=n` sets
+//! `OnlineConfig::workers` (the candidates are the same).
 
 use std::path::Path;
 
@@ -103,6 +104,9 @@ fn main() {
         }
         if let Ok(v) = std::env::var("DRIFT_PROBE") {
             config.drift_probe = v == "1";
+        }
+        if let Ok(v) = std::env::var("WORKERS") {
+            config.workers = v.parse().expect("WORKERS");
         }
         let drift = config.pipeline.drift_prior.unwrap_or_default();
         let mut det = Detector::new(config, Overflow::Block);

@@ -162,12 +162,15 @@ fn standing_still_for_a_long_time_adds_nothing() {
     assert!((turning(&a) - turning(&b)).abs() < 0.01 * turning(&a));
 }
 
+/// With one worker or two (each with its own copy of the history, both
+/// given every message or neither).
 #[test]
 fn a_full_queue_defers_and_skips_but_loses_no_sample() {
     let points = kitti("00");
-    let run = |overflow: Overflow, capacity: usize| {
+    let run = |overflow: Overflow, capacity: usize, workers: usize| {
         let config = OnlineConfig {
             queue_capacity: capacity,
+            workers,
             ..OnlineConfig::default()
         };
         let mut d = Detector::new(config, overflow);
@@ -176,19 +179,22 @@ fn a_full_queue_defers_and_skips_but_loses_no_sample() {
         }
         d.finish().1
     };
-    let blocked = run(Overflow::Block, 4);
-    let merged = run(Overflow::MergeLatest, 1);
-    assert_eq!(blocked.worker.grid_samples, merged.worker.grid_samples);
-    assert_eq!(blocked.worker.sig_samples, merged.worker.sig_samples);
-    assert_eq!(blocked.worker.segments, merged.worker.segments);
-    assert_eq!(blocked.deferred, 0);
-    assert_eq!(blocked.worker.skipped, 0);
-    // Pushing a whole file at memory speed outruns the matching thread.
-    assert!(merged.deferred > 0, "no deferral: {merged:?}");
-    assert_eq!(
-        merged.worker.matched + merged.worker.skipped,
-        merged.worker.segments
-    );
+    let blocked = run(Overflow::Block, 4, 1);
+    for workers in [1, 2] {
+        let merged = run(Overflow::MergeLatest, 1, workers);
+        assert_eq!(blocked.worker.grid_samples, merged.worker.grid_samples);
+        assert_eq!(blocked.worker.sig_samples, merged.worker.sig_samples);
+        assert_eq!(blocked.worker.segments, merged.worker.segments);
+        assert_eq!(blocked.deferred, 0);
+        assert_eq!(blocked.worker.skipped, 0);
+        // Pushing a whole file at memory speed outruns the matching threads.
+        assert!(merged.deferred > 0, "no deferral: {merged:?}");
+        assert_eq!(
+            merged.worker.matched + merged.worker.skipped,
+            merged.worker.segments,
+            "{workers} workers"
+        );
+    }
 }
 
 /// A replay's caller waits out a full queue until it is half empty: the

@@ -198,6 +198,9 @@ fn main() -> ExitCode {
             let config = turnprint::online::OnlineConfig {
                 top_k: top,
                 drift_probe: !no_drift_probe,
+                // A replay wants throughput: a second matching thread where
+                // there is a second core (the same candidates either way).
+                workers: std::thread::available_parallelism().map_or(1, |n| n.get().min(2)),
                 ..Default::default()
             };
             if verify && a == Path::new("-") {

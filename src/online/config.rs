@@ -77,6 +77,13 @@ pub struct OnlineConfig {
     /// [`super::Overflow::Block`] the caller waits instead of merging, and
     /// the queue is deeper (the worker module says how).
     pub queue_capacity: usize,
+    /// Matching threads. Each keeps its own copy of the history (the memory
+    /// per pose is this many times one worker's) and runs every
+    /// `workers`-th matching; the candidates are the same, in the same
+    /// order, with any number of them (`worker::Settle`). 1 for a detector
+    /// embedded beside odometry, which needs its cores; 2 for a replay
+    /// (`turnprint stream`), which wants throughput.
+    pub workers: usize,
     /// A step longer than this many typical steps is a jump (GPS glitch,
     /// VO failure) and goes through the jump filter.
     pub jump_factor: f64,
@@ -128,6 +135,7 @@ impl Default for OnlineConfig {
             drift_probe: true,
             probe_every: 48,
             queue_capacity: 4,
+            workers: 1,
             jump_factor: 25.0,
             block_len: 2048,
         }

@@ -5,7 +5,13 @@
 //!    O(1) amortised, never waits (MergeLatest)             history, search, verify
 //! poll() ◀────────────────────────── candidates ◀──────────────────────────┘
 //! ```
+//!
+//! With [`OnlineConfig::workers`] above 1, every worker takes every message
+//! (one shared copy) and keeps its own history, runs its share of the
+//! matchings, and a settling thread puts their candidates back in stream
+//! order.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use crossbeam::channel::{bounded, unbounded, Receiver, Sender, TrySendError};
@@ -16,7 +22,7 @@ use super::events::CandidateEvent;
 use super::frontend::{Frontend, Outbox, TrackParams};
 use super::guard::{GuardCounts, Rejection, TimeGuard};
 use super::search::Frame;
-use super::worker::{spawn, Message, Overflow, WorkerStats};
+use super::worker::{spawn, spawn_settler, Message, Overflow, Sink, WorkerStats};
 use super::OnlineConfig;
 
 /// Track samples past which a deferred outbox is sealed (see `send`): its
@@ -98,12 +104,15 @@ pub struct Detector {
     poses: usize,
     summary: Summary,
     started: Option<Instant>,
-    tx: Option<Sender<Message>>,
-    /// With [`Overflow::Block`], the worker's word that its queue is half
+    /// Each worker's queue.
+    tx: Vec<Sender<Arc<Message>>>,
+    /// With [`Overflow::Block`], each worker's word that its queue is half
     /// empty (see `send`).
-    room: Receiver<()>,
+    room: Vec<Receiver<()>>,
     events: Receiver<CandidateEvent>,
-    worker: Option<std::thread::JoinHandle<WorkerStats>>,
+    workers: Vec<std::thread::JoinHandle<WorkerStats>>,
+    /// With several workers, the thread that settles their matchings.
+    settler: Option<std::thread::JoinHandle<u64>>,
     /// Outbox size (track samples) that triggers a hand-over without a new
     /// boundary: the periodic proximity probe.
     flush_samples: usize,
@@ -118,11 +127,28 @@ impl Detector {
             Overflow::MergeLatest => config.queue_capacity,
             Overflow::Block => config.queue_capacity.max(REPLAY_QUEUE),
         };
-        let (tx, rx) = bounded(capacity.max(1));
         let (etx, events) = unbounded();
-        let (room_tx, room) = bounded(1);
-        let room_tx = (overflow == Overflow::Block).then_some(room_tx);
-        let worker = Some(spawn(config.clone(), rx, etx, room_tx));
+        let n = config.workers.max(1);
+        let (stx, settler) = match n {
+            1 => (None, None),
+            _ => {
+                let (stx, srx) = unbounded();
+                (Some(stx), Some(spawn_settler(&config, srx, etx.clone())))
+            }
+        };
+        let (mut tx, mut room, mut workers) = (Vec::new(), Vec::new(), Vec::new());
+        for replica in 0..n {
+            let (wtx, wrx) = bounded(capacity.max(1));
+            let (room_tx, room_rx) = bounded(1);
+            let room_tx = (overflow == Overflow::Block).then_some(room_tx);
+            let sink = match &stx {
+                None => Sink::Caller(etx.clone()),
+                Some(stx) => Sink::Settler(stx.clone()),
+            };
+            workers.push(spawn(config.clone(), replica, wrx, sink, room_tx));
+            tx.push(wtx);
+            room.push(room_rx);
+        }
         let flush_samples = if config.proximity {
             config.probe_every.max(1)
         } else {
@@ -138,10 +164,11 @@ impl Detector {
             poses: 0,
             summary: Summary::default(),
             started: None,
-            tx: Some(tx),
+            tx,
             room,
             events,
-            worker,
+            workers,
+            settler,
             flush_samples,
             merging: false,
         }
@@ -207,11 +234,15 @@ impl Detector {
         })
     }
 
-    /// Hands the outbox to the worker (or keeps it, per the overflow policy).
+    /// Hands the outbox to the workers (or keeps it, per the overflow
+    /// policy).
     fn send(&mut self) {
-        let (Some(frame), Some(tx)) = (self.frame(), self.tx.as_ref()) else {
+        let Some(frame) = self.frame() else {
             return;
         };
+        if self.tx.is_empty() {
+            return;
+        }
         let m = Message {
             earlier: std::mem::take(&mut self.pending),
             out: std::mem::take(&mut self.outbox),
@@ -228,42 +259,53 @@ impl Detector {
                 // word still blocks, so a stale word costs one wake, never
                 // a message (and a live detector's last hand-over, which
                 // has no word to wait for, just blocks).
-                let sent = match tx.try_send(m) {
-                    Err(TrySendError::Full(m)) => {
-                        let _ = self.room.recv();
-                        tx.send(m).is_ok()
-                    }
-                    r => r.is_ok(),
-                };
+                let m = Arc::new(m);
+                let mut sent = true;
+                for (tx, room) in self.tx.iter().zip(&self.room) {
+                    sent &= match tx.try_send(m.clone()) {
+                        Err(TrySendError::Full(m)) => {
+                            let _ = room.recv();
+                            tx.send(m).is_ok()
+                        }
+                        r => r.is_ok(),
+                    };
+                }
                 if sent {
                     self.summary.messages += 1;
                     self.merging = false;
                 }
             }
-            Overflow::MergeLatest => match tx.try_send(m) {
-                Ok(()) => {
+            // Every worker takes every message, or none does: only this
+            // thread sends, so a queue with room keeps it until the send.
+            Overflow::MergeLatest if self.tx.iter().all(|tx| !tx.is_full()) => {
+                let m = Arc::new(m);
+                let mut sent = true;
+                for tx in &self.tx {
+                    sent &= tx.try_send(m.clone()).is_ok();
+                }
+                if sent {
                     self.summary.messages += 1;
                     self.merging = false;
                 }
-                Err(TrySendError::Full(m)) | Err(TrySendError::Disconnected(m)) => {
-                    self.summary.deferred += 1;
-                    self.merging = true;
-                    // While the worker lags the records pile up; grown in
-                    // one buffer, each doubling would copy all of them on
-                    // the caller's thread (pushes of 5-50 ms after minutes
-                    // of lag). Past SEALED_CHUNK samples the outbox is
-                    // sealed and a fresh one started: no copy exceeds that.
-                    let Message {
-                        mut earlier, out, ..
-                    } = m;
-                    if out.grid.len() >= SEALED_CHUNK {
-                        earlier.push(out);
-                    } else {
-                        self.outbox = out;
-                    }
-                    self.pending = earlier;
+            }
+            Overflow::MergeLatest => {
+                self.summary.deferred += 1;
+                self.merging = true;
+                // While the workers lag the records pile up; grown in one
+                // buffer, each doubling would copy all of them on the
+                // caller's thread (pushes of 5-50 ms after minutes of
+                // lag). Past SEALED_CHUNK samples the outbox is sealed and
+                // a fresh one started: no copy exceeds that.
+                let Message {
+                    mut earlier, out, ..
+                } = m;
+                if out.grid.len() >= SEALED_CHUNK {
+                    earlier.push(out);
+                } else {
+                    self.outbox = out;
                 }
-            },
+                self.pending = earlier;
+            }
         }
     }
 
@@ -306,11 +348,15 @@ impl Detector {
             self.send();
             self.overflow = overflow;
         }
-        self.tx = None;
-        if let Some(w) = self.worker.take() {
-            if let Ok(stats) = w.join() {
-                self.summary.worker = stats;
-            }
+        self.tx.clear();
+        let stats: Vec<WorkerStats> = self
+            .workers
+            .drain(..)
+            .filter_map(|w| w.join().ok())
+            .collect();
+        self.summary.worker = WorkerStats::combined(&stats);
+        if let Some(settler) = self.settler.take() {
+            self.summary.worker.candidates = settler.join().unwrap_or(0);
         }
         if let Some(t0) = self.started {
             self.summary.wall_s = t0.elapsed().as_secs_f64();
@@ -321,9 +367,12 @@ impl Detector {
 
 impl Drop for Detector {
     fn drop(&mut self) {
-        self.tx = None;
-        if let Some(w) = self.worker.take() {
+        self.tx.clear();
+        for w in self.workers.drain(..) {
             let _ = w.join();
+        }
+        if let Some(settler) = self.settler.take() {
+            let _ = settler.join();
         }
     }
 }

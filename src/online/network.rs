@@ -38,36 +38,42 @@ const REGISTER_PERIODS: usize = 4;
 pub const REGISTER_MARGIN: f64 = 1.1;
 /// Probe periods between two network registrations at least: a segment's
 /// end and a periodic probe can come a few samples apart, and their windows
-/// would be placed twice. (At every probe: 22 strong-drift events of 44
-/// instead of 21, the stream within noise; every second period: 20.)
+/// would be placed twice (the later one's candidates are dropped). (At
+/// every probe: 22 strong-drift events of 44 instead of 21, the stream
+/// within noise; every second period: 20.)
 const REGISTER_EVERY: usize = 1;
+
+/// Whether a registration of the window ending at track sample `g1` comes
+/// too soon after the one at `last` (see [`REGISTER_EVERY`]). Decided when
+/// the matchings are settled in stream order (`worker::Settle`), since with
+/// several workers the previous matching may still be running elsewhere.
+pub fn too_soon(last: Option<usize>, g1: usize, config: &OnlineConfig) -> bool {
+    last.is_some_and(|last| g1 < last + REGISTER_EVERY * config.probe_every)
+}
 
 /// The newest stretch registered onto the map's road network
 /// ([`register`]), for a probe that found a road but no candidate (a
 /// proximity candidate short of the cut aside; with the drifting map's
 /// search on): verified from the registered place, and from its rival on a
 /// drifting probe's road when the margin is short of [`REGISTER_MARGIN`],
-/// emitted as the drift probe's.
+/// emitted as the drift probe's. `None` when no registration is due;
+/// otherwise the window's newest sample (for [`too_soon`]) and what it
+/// found.
 pub fn register_newest(
     h: &History,
-    searcher: &mut Searcher,
+    searcher: &Searcher,
     frame: &Frame,
     probed: &Probed,
     config: &OnlineConfig,
-) -> Vec<Found> {
+) -> Option<(usize, Vec<Found>)> {
     let (Some(prior), Some(spatial)) = (&config.pipeline.drift_prior, &searcher.spatial) else {
-        return Vec::new();
+        return None;
     };
     let g1 = probed.query()[1];
-    let Some(g0) = g1.checked_sub(REGISTER_PERIODS * config.probe_every) else {
-        return Vec::new();
-    };
-    let recent = searcher
-        .last_registered
-        .is_some_and(|last| g1 < last + REGISTER_EVERY * config.probe_every);
+    let g0 = g1.checked_sub(REGISTER_PERIODS * config.probe_every)?;
     let length = h.s[g1] - h.s[g0];
-    if config.drift_radius() <= 0.0 || recent || length <= 0.0 {
-        return Vec::new();
+    if config.drift_radius() <= 0.0 || length <= 0.0 {
+        return None;
     }
     // Every window is placed, straight or turning: a straight slides along
     // its road, and its rival places along the road hold its margin near 1
@@ -76,7 +82,7 @@ pub fn register_newest(
     // narrower reach now pays for: KITTI 00's ground truth 13 -> 22 calls,
     // 172.7 M -> 187.1 M worker instructions (the fourteenth session's
     // 186.5 M); strong drift, seeds 1-40, 296 -> 320 of 440.
-    searcher.last_registered = Some(g1);
+
     // The drift prior's reach at the probed roads' distance.
     let between = (h.s[g0] - h.s[probed.target()]).max(0.0);
     let bounds = register::Bounds::of_drift(
@@ -88,15 +94,15 @@ pub fn register_newest(
         frame.step,
     );
     let Some(placed) = register::register(h, spatial, g0, g1, &bounds, prior) else {
-        return Vec::new();
+        return Some((g1, Vec::new()));
     };
     let rival = match (placed.margin >= REGISTER_MARGIN, probed.drifting()) {
         (true, _) => None,
         (false, true) => placed.rival,
-        (false, false) => return Vec::new(),
+        (false, false) => return Some((g1, Vec::new())),
     };
     let room = g1 - g0;
-    std::iter::once(placed.place)
+    let found = std::iter::once(placed.place)
         .chain(rival)
         .filter_map(|place| {
             let t_range = [place.target.saturating_sub(room), place.target + room];
@@ -112,5 +118,6 @@ pub fn register_newest(
             )
         })
         .filter(|f| emitted(f, config, frame.step))
-        .collect()
+        .collect();
+    Some((g1, found))
 }

@@ -1,0 +1,86 @@
+//! `OnlineConfig::workers`: several matching threads, each with its own
+//! copy of the history and every n-th matching, give exactly the
+//! candidates of one, in the same order with the same ids: what depends on
+//! earlier matchings (a registration too soon after the previous one, the
+//! ids) is settled in stream order (`worker::Settle`).
+
+#![cfg(feature = "eval")]
+
+use std::path::Path;
+
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use turnprint::eval::drift::DriftModel;
+use turnprint::io::{read_trajectory, Format};
+use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Source};
+
+fn kitti(name: &str) -> Vec<Vector3<f64>> {
+    let path = format!("tests/data/{name}.txt");
+    read_trajectory(Path::new(&path), Format::Kitti)
+        .expect(&path)
+        .positions()
+}
+
+/// Every candidate of a replay with `workers` threads, in arrival order,
+/// and the number the summary counts.
+fn replayed(points: &[Vector3<f64>], workers: usize) -> (Vec<CandidateEvent>, u64) {
+    let config = OnlineConfig {
+        workers,
+        ..Default::default()
+    };
+    let mut det = Detector::new(config, Overflow::Block);
+    let mut out = Vec::new();
+    for p in points {
+        det.push(&PoseInput::at(*p));
+        out.extend(det.poll());
+    }
+    let (rest, summary) = det.finish();
+    out.extend(rest);
+    (out, summary.worker.candidates)
+}
+
+/// The candidates, every field (`Debug` prints floats exactly).
+fn printed(events: &[CandidateEvent]) -> Vec<String> {
+    events.iter().map(|e| format!("{e:?}")).collect()
+}
+
+fn same_with_any_number_of_workers(points: &[Vector3<f64>]) -> Vec<CandidateEvent> {
+    let (one, counted) = replayed(points, 1);
+    assert_eq!(counted, one.len() as u64);
+    assert!(!one.is_empty());
+    for workers in [2, 3] {
+        let (many, counted) = replayed(points, workers);
+        let (a, b) = (printed(&one), printed(&many));
+        if let Some(i) = (0..a.len().max(b.len())).find(|&i| a.get(i) != b.get(i)) {
+            panic!(
+                "{workers} workers: candidate {i} of {} differs from one worker's (of {}):\n{:?}\n{:?}",
+                b.len(),
+                a.len(),
+                b.get(i),
+                a.get(i)
+            );
+        }
+        assert_eq!(counted, one.len() as u64, "{workers} workers' count");
+    }
+    one
+}
+
+#[test]
+fn two_or_three_workers_give_one_workers_candidates_on_kitti_00() {
+    same_with_any_number_of_workers(&kitti("00"));
+}
+
+/// Under strong drift the network registration runs at most probes, so
+/// the rule that drops one too soon after the previous one is settled
+/// across workers.
+#[test]
+fn two_or_three_workers_give_one_workers_candidates_under_strong_drift() {
+    let truth = kitti("08");
+    let mut rng = rand::rngs::StdRng::seed_from_u64(2);
+    let drifted = DriftModel::strong().apply(&truth, &mut rng);
+    let one = same_with_any_number_of_workers(&drifted);
+    assert!(
+        one.iter().any(|e| e.source == Source::Network),
+        "no registration to settle"
+    );
+}
