@@ -21,6 +21,9 @@
 //! `N_max` full correlations. Means and deviations come from prefix sums, so
 //! the ZNCC equals the batch correlator's (to `f32` rounding).
 
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
 use rustfft::num_complex::Complex;
 
 use crate::matching::blocks::BlockTransform;
@@ -36,6 +39,51 @@ pub struct Piece {
     pub forward: Vec<f32>,
     /// `R[e]`, reversed.
     pub reversed: Vec<f32>,
+}
+
+/// Pieces shared by several workers, each with the same history: the first
+/// to reach a boundary computes its piece, the others take it if it is
+/// there by then. Nobody waits, so the workers stay as free of each other
+/// as before (waiting for a piece's owner coupled them: KITTI 00 streamed
+/// in 31 ms instead of 22).
+pub struct SharedPieces {
+    workers: usize,
+    /// Piece by boundary number, with how many workers have it.
+    slots: Mutex<HashMap<usize, (Arc<Piece>, usize)>>,
+}
+
+impl SharedPieces {
+    /// Pieces shared by `workers` workers.
+    pub fn new(workers: usize) -> Self {
+        SharedPieces {
+            workers,
+            slots: Mutex::new(HashMap::new()),
+        }
+    }
+
+    /// The piece of boundary `k`: another worker's, or `compute`d.
+    pub fn piece(&self, k: usize, compute: impl FnOnce() -> Piece) -> Arc<Piece> {
+        // Every worker asks for every boundary once: the last one frees it.
+        let take = |slots: &mut HashMap<usize, (Arc<Piece>, usize)>, piece: Arc<Piece>| {
+            let entry = slots.entry(k).or_insert((piece, 0));
+            entry.1 += 1;
+            let piece = entry.0.clone();
+            if entry.1 >= self.workers {
+                slots.remove(&k);
+            }
+            piece
+        };
+        if let Ok(mut slots) = self.slots.lock() {
+            if let Some(piece) = slots.get(&k).map(|s| s.0.clone()) {
+                return take(&mut slots, piece);
+            }
+        }
+        let piece = Arc::new(compute());
+        match self.slots.lock() {
+            Ok(mut slots) => take(&mut slots, piece),
+            Err(_) => piece,
+        }
+    }
 }
 
 /// Block spectra of the history and its prefix sums.
@@ -160,5 +208,33 @@ impl BlockCorrelator {
     pub fn bytes(&self) -> usize {
         self.spectra.iter().map(|s| s.capacity() * 8).sum::<usize>()
             + (self.prefix.capacity() + self.prefix_sq.capacity()) * 8
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_shared_piece_is_computed_once_and_freed_once_every_worker_has_it() {
+        let shared = SharedPieces::new(2);
+        let computed = std::cell::Cell::new(0);
+        let compute = || {
+            computed.set(computed.get() + 1);
+            Piece {
+                start: 0,
+                len: 1,
+                forward: vec![1.0],
+                reversed: vec![-1.0],
+            }
+        };
+        let first = shared.piece(7, compute);
+        let second = shared.piece(7, compute);
+        assert_eq!(computed.get(), 1);
+        assert!(Arc::ptr_eq(&first, &second));
+        assert!(shared.slots.lock().unwrap().is_empty());
+        // Asked for once more after every worker had it: computed anew.
+        shared.piece(7, compute);
+        assert_eq!(computed.get(), 2);
     }
 }

@@ -18,6 +18,7 @@ use crossbeam::channel::{bounded, unbounded, Receiver, Sender, TrySendError};
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::Serialize;
 
+use super::correlator::SharedPieces;
 use super::events::CandidateEvent;
 use super::frontend::{Frontend, Outbox, TrackParams};
 use super::guard::{GuardCounts, Rejection, TimeGuard};
@@ -136,6 +137,7 @@ impl Detector {
                 (Some(stx), Some(spawn_settler(&config, srx, etx.clone())))
             }
         };
+        let pieces = (n > 1).then(|| Arc::new(SharedPieces::new(n)));
         let (mut tx, mut room, mut workers) = (Vec::new(), Vec::new(), Vec::new());
         for replica in 0..n {
             let (wtx, wrx) = bounded(capacity.max(1));
@@ -145,7 +147,14 @@ impl Detector {
                 None => Sink::Caller(etx.clone()),
                 Some(stx) => Sink::Settler(stx.clone()),
             };
-            workers.push(spawn(config.clone(), replica, wrx, sink, room_tx));
+            workers.push(spawn(
+                config.clone(),
+                replica,
+                pieces.clone(),
+                wrx,
+                sink,
+                room_tx,
+            ));
             tx.push(wtx);
             room.push(room_rx);
         }

@@ -6,8 +6,9 @@
 //! grown and emitted the same way: [`super::network`]).
 
 use std::collections::HashMap;
+use std::sync::Arc;
 
-use super::correlator::{BlockCorrelator, Piece};
+use super::correlator::{BlockCorrelator, Piece, SharedPieces};
 use super::events::Source;
 use super::history::{History, SpatialIndex, Window};
 use super::scan;
@@ -156,7 +157,9 @@ pub struct Searcher {
     /// Block spectra and prefix sums of the history signature.
     pub correlator: BlockCorrelator,
     /// Cached raw correlations of the newest pieces (oldest first).
-    pub pieces: Vec<Piece>,
+    pub pieces: Vec<Arc<Piece>>,
+    /// With several workers, the pieces they share.
+    pub shared: Option<Arc<SharedPieces>>,
     /// Decimated positions for the proximity probe.
     pub spatial: Option<SpatialIndex>,
     /// Track sample the newest network registration ended at.
@@ -169,6 +172,7 @@ impl Searcher {
         Searcher {
             correlator: BlockCorrelator::new(config.block_len),
             pieces: Vec::new(),
+            shared: None,
             spatial: None,
             last_registered: None,
         }
@@ -183,10 +187,16 @@ impl Searcher {
         spatial.update(h);
     }
 
-    /// Caches the piece ending at boundary number `k` (`k >= 1`).
+    /// Caches the piece ending at boundary number `k` (`k >= 1`), or takes
+    /// it from another worker.
     pub fn add_piece(&mut self, h: &History, k: usize, keep: usize) {
         let (b0, b1) = (h.bounds[k - 1], h.bounds[k]);
-        let piece = self.correlator.piece(&h.sig_value, b0, b1 - b0);
+        let correlator = &mut self.correlator;
+        let mut compute = || correlator.piece(&h.sig_value, b0, b1 - b0);
+        let piece = match &self.shared {
+            Some(shared) => shared.piece(k, compute),
+            None => Arc::new(compute()),
+        };
         self.pieces.push(piece);
         if self.pieces.len() > keep {
             self.pieces.remove(0);
@@ -214,7 +224,7 @@ impl Searcher {
         let mut pieces = Vec::new();
         let max_n = qc.max_segments.min(self.pieces.len());
         for n in 1..=max_n {
-            let piece = &self.pieces[self.pieces.len() - n];
+            let piece: &Piece = &self.pieces[self.pieces.len() - n];
             let q0 = piece.start;
             let len = q1 - q0 + 1;
             let margin = match config.exclusion {
