@@ -41,6 +41,36 @@ pub struct Hypothesis {
     pub correspondences: Vec<(usize, usize)>,
 }
 
+#[cfg(test)]
+impl Hypothesis {
+    /// A hypothesis with this score, these ranges and direction, and the
+    /// identity similarity (unit tests of the stages that sort, rank and
+    /// settle hypotheses).
+    pub(crate) fn scored(
+        score: f64,
+        a_range: [usize; 2],
+        b_range: [usize; 2],
+        reversed: bool,
+    ) -> Self {
+        Hypothesis {
+            rank: 0,
+            score,
+            zncc: 1.0,
+            reversed,
+            a_range,
+            b_range,
+            scale: 1.0,
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+            rmse: 0.0,
+            turning: 0.0,
+            length: 1.0,
+            length_ratio: 1.0,
+            correspondences: Vec::new(),
+        }
+    }
+}
+
 impl Hypothesis {
     /// Maps a point of B into A's frame.
     pub fn transform(&self, p_b: &Vector3<f64>) -> Vector3<f64> {

@@ -97,22 +97,7 @@ mod tests {
     use super::*;
 
     fn h(score: f64, a: [usize; 2], b: [usize; 2], reversed: bool) -> Hypothesis {
-        Hypothesis {
-            rank: 0,
-            score,
-            zncc: 1.0,
-            reversed,
-            a_range: a,
-            b_range: b,
-            scale: 1.0,
-            rotation: nalgebra::Matrix3::identity(),
-            translation: nalgebra::Vector3::zeros(),
-            rmse: 0.0,
-            turning: 0.0,
-            length: 1.0,
-            length_ratio: 1.0,
-            correspondences: Vec::new(),
-        }
+        Hypothesis::scored(score, a, b, reversed)
     }
 
     #[test]
