@@ -63,26 +63,25 @@ impl SharedPieces {
 
     /// The piece of boundary `k`: another worker's, or `compute`d.
     pub fn piece(&self, k: usize, compute: impl FnOnce() -> Piece) -> Arc<Piece> {
-        // Every worker asks for every boundary once: the last one frees it.
-        let take = |slots: &mut HashMap<usize, (Arc<Piece>, usize)>, piece: Arc<Piece>| {
-            let entry = slots.entry(k).or_insert((piece, 0));
-            entry.1 += 1;
-            let piece = entry.0.clone();
-            if entry.1 >= self.workers {
-                slots.remove(&k);
-            }
-            piece
+        let held = self
+            .slots
+            .lock()
+            .ok()
+            .and_then(|s| s.get(&k).map(|s| s.0.clone()));
+        let piece = held.unwrap_or_else(|| Arc::new(compute()));
+        let Ok(mut slots) = self.slots.lock() else {
+            return piece;
         };
-        if let Ok(mut slots) = self.slots.lock() {
-            if let Some(piece) = slots.get(&k).map(|s| s.0.clone()) {
-                return take(&mut slots, piece);
-            }
+        // The first piece stored is the one handed out (two workers may
+        // compute it at once). Every worker asks for every boundary once:
+        // the last one frees it.
+        let slot = slots.entry(k).or_insert((piece, 0));
+        slot.1 += 1;
+        let piece = slot.0.clone();
+        if slot.1 >= self.workers {
+            slots.remove(&k);
         }
-        let piece = Arc::new(compute());
-        match self.slots.lock() {
-            Ok(mut slots) => take(&mut slots, piece),
-            Err(_) => piece,
-        }
+        piece
     }
 }
 

@@ -23,7 +23,7 @@ use super::events::CandidateEvent;
 use super::frontend::{Frontend, Outbox, TrackParams};
 use super::guard::{GuardCounts, Rejection, TimeGuard};
 use super::search::Frame;
-use super::worker::{spawn, spawn_settler, Message, Overflow, Sink, WorkerStats};
+use super::worker::{spawn, spawn_settler, Message, Overflow, Settle, Sink, WorkerStats};
 use super::OnlineConfig;
 
 /// Track samples past which a deferred outbox is sealed (see `send`): its
@@ -144,7 +144,7 @@ impl Detector {
             let (room_tx, room_rx) = bounded(1);
             let room_tx = (overflow == Overflow::Block).then_some(room_tx);
             let sink = match &stx {
-                None => Sink::Caller(etx.clone()),
+                None => Sink::Caller(etx.clone(), Settle::new(&config)),
                 Some(stx) => Sink::Settler(stx.clone()),
             };
             workers.push(spawn(

@@ -44,11 +44,12 @@ pub const REGISTER_MARGIN: f64 = 1.1;
 const REGISTER_EVERY: usize = 1;
 
 /// Whether a registration of the window ending at track sample `g1` comes
-/// too soon after the one at `last` (see [`REGISTER_EVERY`]). Decided when
-/// the matchings are settled in stream order (`worker::Settle`), since with
-/// several workers the previous matching may still be running elsewhere.
-pub fn too_soon(last: Option<usize>, g1: usize, config: &OnlineConfig) -> bool {
-    last.is_some_and(|last| g1 < last + REGISTER_EVERY * config.probe_every)
+/// too soon after the one at `last`, with probes every `probe_every`
+/// samples (see [`REGISTER_EVERY`]). Decided when the matchings are settled
+/// in stream order (`worker::Settle`), since with several workers the
+/// previous matching may still be running elsewhere.
+pub fn too_soon(last: Option<usize>, g1: usize, probe_every: usize) -> bool {
+    last.is_some_and(|last| g1 < last + REGISTER_EVERY * probe_every)
 }
 
 /// The newest stretch registered onto the map's road network

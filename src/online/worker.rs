@@ -119,8 +119,9 @@ impl WorkerStats {
 
 /// Where a worker's matchings go.
 pub enum Sink {
-    /// The only worker: settled in place, candidates to the caller.
-    Caller(Sender<CandidateEvent>),
+    /// The only worker: its matchings settled in place, the candidates to
+    /// the caller.
+    Caller(Sender<CandidateEvent>, Settle),
     /// One of several: to the thread that settles them in stream order.
     Settler(Sender<Matched>),
 }
@@ -199,7 +200,8 @@ pub struct Settle {
     last_registered: Option<usize>,
     next_id: u64,
     candidates: u64,
-    config: OnlineConfig,
+    top_k: usize,
+    probe_every: usize,
 }
 
 impl Settle {
@@ -209,7 +211,8 @@ impl Settle {
             last_registered: None,
             next_id: 1,
             candidates: 0,
-            config: config.clone(),
+            top_k: config.top_k,
+            probe_every: config.probe_every,
         }
     }
 
@@ -217,15 +220,15 @@ impl Settle {
     pub fn settle(&mut self, m: Matched) -> Vec<CandidateEvent> {
         let mut events = m.found;
         if let Some((g1, registered)) = m.registered {
-            if !too_soon(self.last_registered, g1, &self.config) {
+            if !too_soon(self.last_registered, g1, self.probe_every) {
                 self.last_registered = Some(g1);
                 events.extend(registered);
                 // The registration adds up to two places after the
                 // ranking: still at most `top_k` candidates, the best
                 // scores first.
-                if events.len() > self.config.top_k {
+                if events.len() > self.top_k {
                     events.sort_by(|a, b| b.hypothesis.score.total_cmp(&a.hypothesis.score));
-                    events.truncate(self.config.top_k);
+                    events.truncate(self.top_k);
                 }
             }
         }
@@ -476,10 +479,9 @@ fn keyframe_pair(h: &History, hy: &crate::Hypothesis) -> Option<KeyframePair> {
 fn run(
     mut state: WorkerState,
     rx: Receiver<Arc<Message>>,
-    sink: Sink,
+    mut sink: Sink,
     room: Option<Sender<()>>,
 ) -> WorkerStats {
-    let mut settle = Settle::new(&state.config);
     let half = rx.capacity().unwrap_or(0) / 2;
     while let Ok(m) = rx.recv() {
         if let Some(room) = &room {
@@ -490,8 +492,8 @@ fn run(
         }
         for matched in state.take(&m) {
             // The caller may have dropped its receiver: keep working.
-            match &sink {
-                Sink::Caller(tx) => {
+            match &mut sink {
+                Sink::Caller(tx, settle) => {
                     for e in settle.settle(matched) {
                         let _ = tx.send(e);
                     }
@@ -502,7 +504,9 @@ fn run(
             }
         }
     }
-    state.stats.candidates = settle.candidates;
+    if let Sink::Caller(_, settle) = &sink {
+        state.stats.candidates = settle.candidates;
+    }
     state.finish_stats()
 }
 
