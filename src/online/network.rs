@@ -45,7 +45,7 @@ const REGISTER_EVERY: usize = 1;
 
 /// Whether a registration of the window ending at track sample `g1` comes
 /// too soon after the one at `last`, with probes every `probe_every`
-/// samples (see [`REGISTER_EVERY`]). Decided when the matchings are settled
+/// samples (see `REGISTER_EVERY`). Decided when the matchings are settled
 /// in stream order (`worker::Settle`), since with several workers the
 /// previous matching may still be running elsewhere.
 pub fn too_soon(last: Option<usize>, g1: usize, probe_every: usize) -> bool {
