@@ -180,13 +180,13 @@ fn a_full_queue_defers_and_skips_but_loses_no_sample() {
         d.finish().1
     };
     let blocked = run(Overflow::Block, 4, 1);
+    assert_eq!(blocked.deferred, 0);
+    assert_eq!(blocked.worker.skipped, 0);
     for workers in [1, 2] {
         let merged = run(Overflow::MergeLatest, 1, workers);
         assert_eq!(blocked.worker.grid_samples, merged.worker.grid_samples);
         assert_eq!(blocked.worker.sig_samples, merged.worker.sig_samples);
         assert_eq!(blocked.worker.segments, merged.worker.segments);
-        assert_eq!(blocked.deferred, 0);
-        assert_eq!(blocked.worker.skipped, 0);
         // Pushing a whole file at memory speed outruns the matching threads.
         assert!(merged.deferred > 0, "no deferral: {merged:?}");
         assert_eq!(

@@ -23,7 +23,9 @@ use super::events::CandidateEvent;
 use super::frontend::{Frontend, Outbox, TrackParams};
 use super::guard::{GuardCounts, Rejection, TimeGuard};
 use super::search::Frame;
-use super::worker::{spawn, spawn_settler, Message, Overflow, Settle, Sink, WorkerStats};
+use super::worker::{
+    spawn, spawn_settler, Message, Overflow, Settle, Sink, WorkerState, WorkerStats,
+};
 use super::OnlineConfig;
 
 /// Track samples past which a deferred outbox is sealed (see `send`): its
@@ -147,14 +149,8 @@ impl Detector {
                 None => Sink::Caller(etx.clone(), Settle::new(&config)),
                 Some(stx) => Sink::Settler(stx.clone()),
             };
-            workers.push(spawn(
-                config.clone(),
-                replica,
-                pieces.clone(),
-                wrx,
-                sink,
-                room_tx,
-            ));
+            let state = WorkerState::replica(config.clone(), replica, pieces.clone());
+            workers.push(spawn(state, wrx, sink, room_tx));
             tx.push(wtx);
             room.push(room_rx);
         }

@@ -83,7 +83,6 @@ pub fn register_newest(
     // narrower reach now pays for: KITTI 00's ground truth 13 -> 22 calls,
     // 172.7 M -> 187.1 M worker instructions (the fourteenth session's
     // 186.5 M); strong drift, seeds 1-40, 296 -> 320 of 440.
-
     // The drift prior's reach at the probed roads' distance.
     let between = (h.s[g0] - h.s[probed.target()]).max(0.0);
     let bounds = register::Bounds::of_drift(

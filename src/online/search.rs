@@ -162,8 +162,6 @@ pub struct Searcher {
     pub shared: Option<Arc<SharedPieces>>,
     /// Decimated positions for the proximity probe.
     pub spatial: Option<SpatialIndex>,
-    /// Track sample the newest network registration ended at.
-    pub last_registered: Option<usize>,
 }
 
 impl Searcher {
@@ -174,7 +172,6 @@ impl Searcher {
             pieces: Vec::new(),
             shared: None,
             spatial: None,
-            last_registered: None,
         }
     }
 

@@ -126,27 +126,17 @@ pub enum Sink {
     Settler(Sender<Matched>),
 }
 
-/// Starts worker `replica` (of `config.workers`). `room`, if any, hears once
-/// its queue is half empty (the replay's caller waits for that when the
-/// queue is full).
+/// Starts a worker with `state`. `room`, if any, hears once its queue is
+/// half empty (the replay's caller waits for that when the queue is full).
 pub fn spawn(
-    config: OnlineConfig,
-    replica: usize,
-    pieces: Option<Arc<SharedPieces>>,
+    state: WorkerState,
     rx: Receiver<Arc<Message>>,
     sink: Sink,
     room: Option<Sender<()>>,
 ) -> JoinHandle<WorkerStats> {
     std::thread::Builder::new()
-        .name(format!("turnprint-online-{replica}"))
-        .spawn(move || {
-            run(
-                WorkerState::replica(config, replica, pieces),
-                rx,
-                sink,
-                room,
-            )
-        })
+        .name(format!("turnprint-online-{}", state.replica))
+        .spawn(move || run(state, rx, sink, room))
         .expect("spawning the matching thread")
 }
 
