@@ -69,6 +69,11 @@ typedef struct tp_options {
     /* A step longer than this many typical steps is a jump (GPS glitch, VO
      * failure) and goes through the jump filter (default 25). */
     double jump_factor;
+    /* Matching threads, 1 to 64 (default 1). Each keeps its own copy of
+     * the history (about 125 bytes per pose) and runs every n-th matching;
+     * the candidates are the same with any number. 2 keeps up with a file
+     * replay on two cores; 1 leaves the other cores to the odometry. */
+    uint32_t workers;
 } tp_options;
 
 /* One pose as odometry delivers it. */
@@ -135,8 +140,11 @@ typedef struct tp_summary {
     uint64_t poses, accepted;
     uint64_t non_finite, out_of_order, duplicate, outliers, jumps;
     uint64_t segments, candidates, skipped;
-    /* Memory held by the history at the end. */
+    /* Memory held by the history at the end (every worker's copy). */
     uint64_t history_bytes;
+    /* Matching threads lost to an internal error (tp_detector_finish then
+     * returns TP_ERROR; the others carried on). */
+    uint64_t workers_lost;
 } tp_summary;
 
 /* The library's default settings. Returns TP_ERROR when out is NULL. */
@@ -158,7 +166,9 @@ int64_t tp_detector_poll(tp_detector *detector, tp_candidate *out, size_t capaci
 
 /* Ends the stream: the last segments are matched, the worker stops, the
  * remaining candidates wait for tp_detector_poll, and the counts go to
- * summary (may be NULL). Later pushes return TP_ERROR. */
+ * summary (may be NULL). Later pushes return TP_ERROR. Returns TP_ERROR,
+ * with the summary filled, when a matching thread was lost (a bug: the
+ * candidates polled are right, but some matchings' are missing). */
 int tp_detector_finish(tp_detector *detector, tp_summary *summary);
 
 /* Frees the detector (NULL is ignored). */

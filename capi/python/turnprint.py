@@ -36,7 +36,8 @@ class _Options(C.Structure):
                 ("drift_probe", C.c_int), ("wait_for_matching", C.c_int),
                 ("drift_min_score", C.c_double), ("proximity", C.c_int),
                 ("exclusion_turning", C.c_double), ("max_verify", C.c_uint32),
-                ("queue_capacity", C.c_uint32), ("jump_factor", C.c_double)]
+                ("queue_capacity", C.c_uint32), ("jump_factor", C.c_double),
+                ("workers", C.c_uint32)]
 
 
 class _Pose(C.Structure):
@@ -61,7 +62,7 @@ class _Summary(C.Structure):
     _fields_ = [(name, C.c_uint64) for name in (
         "poses", "accepted", "non_finite", "out_of_order", "duplicate",
         "outliers", "jumps", "segments", "candidates", "skipped",
-        "history_bytes")]
+        "history_bytes", "workers_lost")]
 
 
 class _Hypothesis(C.Structure):
@@ -136,7 +137,7 @@ class Detector:
     def __init__(self, wait_for_matching=False, library=None, **settings):
         """settings: any field of tp_options (top_k, min_score, drift_probe,
         drift_min_score, proximity, exclusion_turning, max_verify,
-        queue_capacity, jump_factor); the others keep the defaults."""
+        queue_capacity, jump_factor, workers); the others keep the defaults."""
         self._handle = None
         self._lib = load(library)
         options = _Options()

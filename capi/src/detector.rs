@@ -17,6 +17,9 @@ use crate::{free_handle, guarded, hand_over, row_major, set_error, TP_ACCEPTED, 
 const TP_REJECTED_NON_FINITE: c_int = 1;
 const TP_REJECTED_OUT_OF_ORDER: c_int = 2;
 const TP_REJECTED_DUPLICATE: c_int = 3;
+/// Most matching threads `tp_options.workers` takes (each keeps a copy of
+/// the history).
+const MAX_WORKERS: u32 = 64;
 
 /// Settings (`tp_options`).
 #[repr(C)]
@@ -42,6 +45,8 @@ pub struct TpOptions {
     pub queue_capacity: u32,
     /// Steps longer than this many typical steps are jumps.
     pub jump_factor: f64,
+    /// Matching threads.
+    pub workers: u32,
 }
 
 /// One pose (`tp_pose`).
@@ -126,6 +131,8 @@ pub struct TpSummary {
     pub skipped: u64,
     /// Bytes held by the history.
     pub history_bytes: u64,
+    /// Matching threads lost to an internal error.
+    pub workers_lost: u64,
 }
 
 /// The detector behind a `tp_detector *`: candidates polled from the
@@ -152,6 +159,7 @@ fn default_options() -> TpOptions {
         max_verify: c.max_verify as u32,
         queue_capacity: c.queue_capacity as u32,
         jump_factor: c.jump_factor,
+        workers: c.workers as u32,
     }
 }
 
@@ -172,6 +180,8 @@ fn invalid(o: &TpOptions) -> Option<&'static str> {
         Some("queue_capacity must be at least 1")
     } else if !(o.jump_factor.is_finite() && o.jump_factor > 1.0) {
         Some("jump_factor must be a finite number above 1")
+    } else if !(1..=MAX_WORKERS).contains(&o.workers) {
+        Some("workers must be between 1 and 64")
     } else {
         None
     }
@@ -223,6 +233,7 @@ pub unsafe extern "C" fn tp_detector_new(options: *const TpOptions) -> *mut TpDe
             max_verify: o.max_verify as usize,
             queue_capacity: o.queue_capacity as usize,
             jump_factor: o.jump_factor,
+            workers: o.workers as usize,
             ..OnlineConfig::default()
         };
         let overflow = match o.wait_for_matching {
@@ -318,6 +329,13 @@ pub unsafe extern "C" fn tp_detector_finish(
         if let Some(out) = unsafe { summary.as_mut() } {
             *out = summary_of(&counts);
         }
+        if counts.workers_lost > 0 {
+            set_error(&format!(
+                "tp_detector_finish: {} matching thread(s) stopped on an internal error; the candidates polled are right, but their matchings' are missing",
+                counts.workers_lost
+            ));
+            return TP_ERROR;
+        }
         TP_ACCEPTED
     })
 }
@@ -388,5 +406,6 @@ fn summary_of(s: &Summary) -> TpSummary {
         candidates: s.worker.candidates,
         skipped: s.worker.skipped,
         history_bytes: s.worker.history_bytes,
+        workers_lost: s.workers_lost,
     }
 }

@@ -145,6 +145,16 @@ fn candidate_lines(out: &str) -> Vec<&str> {
     out.lines().filter(|l| l.starts_with("candidate")).collect()
 }
 
+/// The `history_bytes=` of a loop's summary line.
+fn history_bytes(out: &str) -> u64 {
+    out.lines()
+        .filter(|l| l.starts_with("summary"))
+        .flat_map(|l| l.split_whitespace())
+        .find_map(|w| w.strip_prefix("history_bytes="))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no history_bytes in {out}"))
+}
+
 #[test]
 fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
     let program = compile_cpp("examples/vo_loop.cpp", "vo_loop");
@@ -195,6 +205,7 @@ fn every_setting_from_python_reaches_the_detector() {
         "max_verify=4",
         "queue_capacity=2",
         "jump_factor=30.0",
+        "workers=2",
     ];
     let mut args = vec![
         path.to_str().unwrap(),
@@ -216,6 +227,7 @@ fn every_setting_from_python_reaches_the_detector() {
         max_verify: 4,
         queue_capacity: 2,
         jump_factor: 30.0,
+        workers: 2,
         ..OnlineConfig::default()
     };
     let expected = rust_candidates_with(&path, config);
@@ -224,6 +236,15 @@ fn every_setting_from_python_reaches_the_detector() {
     assert_ne!(expected, rust_candidates(&path));
     // Only shape candidates: the proximity and drift probes are off.
     assert!(expected.iter().all(|l| l.contains(" source=0 ")));
+    // The candidates are the same with any number of workers, but each
+    // keeps its own copy of the history: two workers, twice the bytes.
+    let one = args
+        .iter()
+        .map(|a| if *a == "workers=2" { "workers=1" } else { a });
+    let one = run_python("examples/vo_loop.py", &one.collect::<Vec<_>>());
+    assert_eq!(candidate_lines(&one), expected);
+    let ratio = history_bytes(&out) as f64 / history_bytes(&one) as f64;
+    assert!((1.9..2.1).contains(&ratio), "history bytes x{ratio}");
 }
 
 #[test]

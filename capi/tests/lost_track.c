@@ -16,6 +16,7 @@ static void spoil_exclusion_turning(tp_options *o) { o->exclusion_turning = 0.0;
 static void spoil_max_verify(tp_options *o) { o->max_verify = 0; }
 static void spoil_queue_capacity(tp_options *o) { o->queue_capacity = 0; }
 static void spoil_jump_factor(tp_options *o) { o->jump_factor = 0.5; }
+static void spoil_workers(tp_options *o) { o->workers = 0; }
 
 int main(void) {
     tp_options options;
@@ -40,6 +41,7 @@ int main(void) {
         {"max_verify", spoil_max_verify},
         {"queue_capacity", spoil_queue_capacity},
         {"jump_factor", spoil_jump_factor},
+        {"workers", spoil_workers},
     };
     for (size_t i = 0; i < sizeof invalid / sizeof invalid[0]; ++i) {
         CHECK(tp_options_default(&options) == TP_ACCEPTED);

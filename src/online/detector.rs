@@ -11,6 +11,7 @@
 //! matchings, and a settling thread puts their candidates back in stream
 //! order.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -89,6 +90,10 @@ pub struct Summary {
     pub deferred: u64,
     /// What the worker did.
     pub worker: WorkerStats,
+    /// Workers whose thread stopped before the end (a panic). The others
+    /// carry on; the lost ones' share of the matchings is missing. The CLI
+    /// reports it as an error.
+    pub workers_lost: u64,
     /// Wall time from the first push to the end of `finish` (seconds).
     pub wall_s: f64,
     /// Time spent inside `push` on the caller's thread (seconds).
@@ -115,7 +120,9 @@ pub struct Detector {
     events: Receiver<CandidateEvent>,
     workers: Vec<std::thread::JoinHandle<WorkerStats>>,
     /// With several workers, the thread that settles their matchings.
-    settler: Option<std::thread::JoinHandle<u64>>,
+    settler: Option<std::thread::JoinHandle<()>>,
+    /// Candidates settled so far (by the only worker or the settler).
+    emitted: Arc<AtomicU64>,
     /// Outbox size (track samples) that triggers a hand-over without a new
     /// boundary: the periodic proximity probe.
     flush_samples: usize,
@@ -132,11 +139,13 @@ impl Detector {
         };
         let (etx, events) = unbounded();
         let n = config.workers.max(1);
+        let emitted = Arc::new(AtomicU64::new(0));
         let (stx, settler) = match n {
             1 => (None, None),
             _ => {
                 let (stx, srx) = unbounded();
-                (Some(stx), Some(spawn_settler(&config, srx, etx.clone())))
+                let settle = Settle::new(&config, emitted.clone());
+                (Some(stx), Some(spawn_settler(settle, n, srx, etx.clone())))
             }
         };
         let pieces = (n > 1).then(|| Arc::new(SharedPieces::new(n)));
@@ -146,7 +155,7 @@ impl Detector {
             let (room_tx, room_rx) = bounded(1);
             let room_tx = (overflow == Overflow::Block).then_some(room_tx);
             let sink = match &stx {
-                None => Sink::Caller(etx.clone(), Settle::new(&config)),
+                None => Sink::Caller(etx.clone(), Settle::new(&config, emitted.clone())),
                 Some(stx) => Sink::Settler(stx.clone()),
             };
             let state = WorkerState::replica(config.clone(), replica, pieces.clone());
@@ -174,6 +183,7 @@ impl Detector {
             events,
             workers,
             settler,
+            emitted,
             flush_samples,
             merging: false,
         }
@@ -245,7 +255,11 @@ impl Detector {
         let Some(frame) = self.frame() else {
             return;
         };
+        self.prune_lost();
         if self.tx.is_empty() {
+            // Every worker is lost: nothing would match the samples.
+            self.outbox = Outbox::default();
+            self.pending.clear();
             return;
         }
         let m = Message {
@@ -314,6 +328,29 @@ impl Detector {
         }
     }
 
+    /// Lets go of the workers whose thread has ended before its queue was
+    /// closed (a panic), so that a lost worker's full queue neither blocks
+    /// the caller nor defers the other workers' messages for ever.
+    fn prune_lost(&mut self) {
+        let mut i = 0;
+        while i < self.workers.len() {
+            if self.workers[i].is_finished() {
+                let _ = self.workers.remove(i).join();
+                self.tx.remove(i);
+                self.room.remove(i);
+                self.summary.workers_lost += 1;
+            } else {
+                i += 1;
+            }
+        }
+    }
+
+    /// Workers lost so far (their thread panicked), as found at the last
+    /// hand-over.
+    pub fn workers_lost(&self) -> u64 {
+        self.summary.workers_lost
+    }
+
     /// Candidates that arrived since the last poll.
     pub fn poll(&self) -> Vec<CandidateEvent> {
         self.events.try_iter().collect()
@@ -354,15 +391,18 @@ impl Detector {
             self.overflow = overflow;
         }
         self.tx.clear();
-        let stats: Vec<WorkerStats> = self
-            .workers
-            .drain(..)
-            .filter_map(|w| w.join().ok())
-            .collect();
+        let mut stats = Vec::new();
+        for w in self.workers.drain(..) {
+            match w.join() {
+                Ok(s) => stats.push(s),
+                Err(_) => self.summary.workers_lost += 1,
+            }
+        }
         self.summary.worker = WorkerStats::combined(&stats);
         if let Some(settler) = self.settler.take() {
-            self.summary.worker.candidates = settler.join().unwrap_or(0);
+            let _ = settler.join();
         }
+        self.summary.worker.candidates = self.emitted.load(Ordering::Relaxed);
         if let Some(t0) = self.started {
             self.summary.wall_s = t0.elapsed().as_secs_f64();
         }

@@ -24,9 +24,10 @@
 //! ([`super::correlator::SharedPieces`]).
 
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use crossbeam::channel::{Receiver, Sender};
 use serde::Serialize;
@@ -123,7 +124,33 @@ pub enum Sink {
     /// the caller.
     Caller(Sender<CandidateEvent>, Settle),
     /// One of several: to the thread that settles them in stream order.
-    Settler(Sender<Matched>),
+    Settler(Sender<Report>),
+}
+
+/// What a worker tells the settling thread.
+#[derive(Debug)]
+pub enum Report {
+    /// One of its matchings.
+    Matched(Matched),
+    /// Worker `replica` stopped (it panicked): its later matchings will not
+    /// come, and the settler no longer waits for them.
+    Lost(usize),
+}
+
+/// Tells the settler when its worker's thread unwinds from a panic, so the
+/// other workers' candidates keep flowing instead of waiting for matchings
+/// that will never come.
+struct Mourner {
+    tx: Option<Sender<Report>>,
+    replica: usize,
+}
+
+impl Drop for Mourner {
+    fn drop(&mut self) {
+        if let (true, Some(tx)) = (std::thread::panicking(), &self.tx) {
+            let _ = tx.send(Report::Lost(self.replica));
+        }
+    }
 }
 
 /// Starts a worker with `state`. `room`, if any, hears once its queue is
@@ -141,32 +168,82 @@ pub fn spawn(
 }
 
 /// Starts the thread that settles the matchings of several workers in
-/// stream order and hands their candidates to the caller; it returns the
-/// number of candidates.
+/// stream order with `settle` and hands their candidates to the caller.
 pub fn spawn_settler(
-    config: &OnlineConfig,
-    rx: Receiver<Matched>,
+    mut settle: Settle,
+    workers: usize,
+    rx: Receiver<Report>,
     tx: Sender<CandidateEvent>,
-) -> JoinHandle<u64> {
-    let mut settle = Settle::new(config);
+) -> JoinHandle<()> {
+    let mut order = InOrder::new(workers);
     std::thread::Builder::new()
         .name("turnprint-settle".into())
         .spawn(move || {
-            // Matchings by number until their turn comes.
-            let mut waiting = BTreeMap::new();
-            let mut next = 0;
-            for m in rx {
-                waiting.insert(m.matching, m);
-                while let Some(m) = waiting.remove(&next) {
-                    next += 1;
-                    for e in settle.settle(m) {
-                        let _ = tx.send(e);
-                    }
+            let mut send = |m: Matched| {
+                for e in settle.settle(m) {
+                    let _ = tx.send(e);
+                }
+            };
+            for report in rx {
+                order.take(report);
+                while let Some(m) = order.next_ready() {
+                    send(m);
                 }
             }
-            settle.candidates
+            // Every worker has stopped: what still waits follows a gap that
+            // will never be filled.
+            while let Some((_, m)) = order.waiting.pop_first() {
+                send(m);
+            }
         })
         .expect("spawning the settling thread")
+}
+
+/// The matchings of several workers, put back in stream order.
+struct InOrder {
+    /// Matchings by number until their turn comes.
+    waiting: BTreeMap<u64, Matched>,
+    /// Lost workers: their numbers are passed over.
+    lost: Vec<u64>,
+    next: u64,
+    workers: u64,
+}
+
+impl InOrder {
+    fn new(workers: usize) -> Self {
+        InOrder {
+            waiting: BTreeMap::new(),
+            lost: Vec::new(),
+            next: 0,
+            workers: workers.max(1) as u64,
+        }
+    }
+
+    fn take(&mut self, report: Report) {
+        match report {
+            Report::Matched(m) => {
+                self.waiting.insert(m.matching, m);
+            }
+            Report::Lost(replica) => self.lost.push(replica as u64),
+        }
+    }
+
+    /// The next matching in stream order, if it has come. A lost worker
+    /// sent every matching it finished before it reported the loss, so a
+    /// number of its that has not come never will.
+    fn next_ready(&mut self) -> Option<Matched> {
+        loop {
+            if let Some(m) = self.waiting.remove(&self.next) {
+                self.next += 1;
+                return Some(m);
+            }
+            let lost = self.lost.contains(&(self.next % self.workers));
+            if !lost || self.lost.len() as u64 >= self.workers {
+                return None;
+            }
+            self.next += 1;
+        }
+    }
 }
 
 /// One matching's candidates before they are settled: the searches', best
@@ -189,18 +266,20 @@ pub struct Matched {
 pub struct Settle {
     last_registered: Option<usize>,
     next_id: u64,
-    candidates: u64,
+    /// Candidates settled, counted where the caller can read them even if
+    /// the thread settling them is lost.
+    emitted: Arc<AtomicU64>,
     top_k: usize,
     probe_every: usize,
 }
 
 impl Settle {
-    /// Nothing settled yet.
-    pub fn new(config: &OnlineConfig) -> Self {
+    /// Nothing settled yet; the candidates are counted in `emitted`.
+    pub fn new(config: &OnlineConfig, emitted: Arc<AtomicU64>) -> Self {
         Settle {
             last_registered: None,
             next_id: 1,
-            candidates: 0,
+            emitted,
             top_k: config.top_k,
             probe_every: config.probe_every,
         }
@@ -226,7 +305,8 @@ impl Settle {
             e.id = self.next_id;
             self.next_id += 1;
         }
-        self.candidates += events.len() as u64;
+        self.emitted
+            .fetch_add(events.len() as u64, Ordering::Relaxed);
         events
     }
 }
@@ -248,6 +328,17 @@ pub struct WorkerState {
     matchings: u64,
     /// Periodic probes so far, this worker's and the others'.
     periodic: u64,
+    /// A test's injected panic at this matching ([`FAIL_AT`]).
+    #[cfg(test)]
+    fail_at: Option<u64>,
+}
+
+#[cfg(test)]
+thread_local! {
+    /// A test's injected failure: worker `.0` of the detectors this thread
+    /// builds panics at its matching numbered `.1`.
+    pub(crate) static FAIL_AT: std::cell::Cell<Option<(usize, u64)>> =
+        const { std::cell::Cell::new(None) };
 }
 
 impl WorkerState {
@@ -273,6 +364,8 @@ impl WorkerState {
             replica,
             matchings: 0,
             periodic: 0,
+            #[cfg(test)]
+            fail_at: FAIL_AT.get().and_then(|(r, m)| (r == replica).then_some(m)),
         }
     }
 
@@ -357,6 +450,13 @@ impl WorkerState {
         }
         if matching % self.config.workers.max(1) as u64 != self.replica as u64 {
             return None;
+        }
+        #[cfg(test)]
+        if self.fail_at == Some(matching) {
+            panic!(
+                "injected failure of worker {} at matching {matching}",
+                self.replica
+            );
         }
         let start = Instant::now();
         let h = &self.history;
@@ -472,6 +572,13 @@ fn run(
     mut sink: Sink,
     room: Option<Sender<()>>,
 ) -> WorkerStats {
+    let _mourner = Mourner {
+        tx: match &sink {
+            Sink::Settler(tx) => Some(tx.clone()),
+            Sink::Caller(..) => None,
+        },
+        replica: state.replica,
+    };
     let half = rx.capacity().unwrap_or(0) / 2;
     while let Ok(m) = rx.recv() {
         if let Some(room) = &room {
@@ -489,19 +596,13 @@ fn run(
                     }
                 }
                 Sink::Settler(tx) => {
-                    let _ = tx.send(matched);
+                    let _ = tx.send(Report::Matched(matched));
                 }
             }
         }
     }
-    if let Sink::Caller(_, settle) = &sink {
-        state.stats.candidates = settle.candidates;
-    }
     state.finish_stats()
 }
-
-/// How long [`super::Detector::finish`] waits for the worker.
-pub const FINISH_TIMEOUT: Duration = Duration::from_secs(600);
 
 #[cfg(test)]
 mod tests {
@@ -527,7 +628,8 @@ mod tests {
     fn settling_drops_a_registration_too_soon_keeps_the_top_k_and_numbers_in_order() {
         let config = OnlineConfig::default();
         let every = config.probe_every;
-        let mut settle = Settle::new(&config);
+        let emitted = Arc::new(AtomicU64::new(0));
+        let mut settle = Settle::new(&config, emitted.clone());
         let registered = |g1: usize, scores: &[f64]| {
             Some((
                 g1,
@@ -557,6 +659,102 @@ mod tests {
             registered: registered(1000 + every, &[0.6]),
         });
         assert_eq!(scores(&later), [(5, 0.6)]);
-        assert_eq!(settle.candidates, 5);
+        assert_eq!(emitted.load(Ordering::Relaxed), 5);
+    }
+
+    fn matched(matching: u64) -> Report {
+        Report::Matched(Matched {
+            matching,
+            found: Vec::new(),
+            registered: None,
+        })
+    }
+
+    #[test]
+    fn a_lost_workers_numbers_are_passed_over_and_the_others_still_come_in_order() {
+        let mut order = InOrder::new(3);
+        for m in [0, 2, 3, 5] {
+            order.take(matched(m));
+        }
+        let ready = |order: &mut InOrder| {
+            std::iter::from_fn(|| order.next_ready().map(|m| m.matching)).collect::<Vec<_>>()
+        };
+        // 1 is worker 1's: waited for.
+        assert_eq!(ready(&mut order), vec![0]);
+        // Worker 1 is lost: its 1 and 4 never come.
+        order.take(Report::Lost(1));
+        assert_eq!(ready(&mut order), vec![2, 3, 5]);
+        order.take(matched(6));
+        assert_eq!(ready(&mut order), vec![6]);
+        // Every worker lost: nothing is skipped for ever.
+        order.take(Report::Lost(0));
+        order.take(Report::Lost(2));
+        order.take(matched(9));
+        assert_eq!(ready(&mut order), Vec::<u64>::new());
+    }
+
+    /// KITTI 00's ground truth replayed by `workers` workers, worker
+    /// `fail.0` panicking at its matching `fail.1`: the candidates in
+    /// arrival order, the summary, and the losses seen before `finish`.
+    fn replay_failing(
+        workers: usize,
+        fail: Option<(usize, u64)>,
+    ) -> (Vec<CandidateEvent>, super::super::Summary, u64) {
+        use super::super::{Detector, PoseInput};
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/00.txt");
+        let points = crate::io::read_trajectory(path.as_ref(), crate::io::Format::Kitti)
+            .expect(path)
+            .positions();
+        FAIL_AT.set(fail);
+        let config = OnlineConfig {
+            workers,
+            ..Default::default()
+        };
+        let mut det = Detector::new(config, Overflow::Block);
+        FAIL_AT.set(None);
+        let mut out = Vec::new();
+        for p in &points {
+            det.push(&PoseInput::at(*p));
+            out.extend(det.poll());
+        }
+        let seen = det.workers_lost();
+        let (rest, summary) = det.finish();
+        out.extend(rest);
+        (out, summary, seen)
+    }
+
+    /// Regression: a worker that panicked left the settler waiting for its
+    /// matchings, and the other workers' later candidates never came.
+    #[test]
+    fn a_lost_worker_is_counted_and_the_others_candidates_keep_coming() {
+        let printed = |events: &[CandidateEvent]| -> Vec<String> {
+            events.iter().map(|e| format!("{e:?}")).collect()
+        };
+        for workers in [1, 2] {
+            let (all, healthy, _) = replay_failing(workers, None);
+            assert_eq!(healthy.workers_lost, 0);
+            // Matching 101 of about 170 falls about two thirds of the way.
+            let fail = (workers - 1, 101 + workers as u64 % 2);
+            let (out, summary, seen) = replay_failing(workers, Some(fail));
+            assert_eq!((summary.workers_lost, seen), (1, 1), "{workers} workers");
+            assert_eq!(summary.worker.candidates, out.len() as u64);
+            let (a, b) = (printed(&all), printed(&out));
+            let same = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+            assert!(
+                same >= 10 && same < a.len(),
+                "{workers} workers: {same} of {}",
+                a.len()
+            );
+            if workers == 1 {
+                // The only worker: nothing after its loss, and no hang.
+                assert_eq!(same, b.len());
+            } else {
+                // The other worker's matchings still come, in order, and it
+                // still takes every message.
+                assert!(b.len() >= same + 10, "{} after {same}", b.len());
+                assert!(out.windows(2).all(|w| w[0].at_pose <= w[1].at_pose));
+                assert!(summary.messages + 1 >= healthy.messages);
+            }
+        }
     }
 }
