@@ -359,6 +359,43 @@ fn stream_no_drift_probe_flag_keeps_the_json_lines_contract() {
     );
 }
 
+#[test]
+fn stream_workers_flag_gives_the_same_candidates_and_refuses_zero() {
+    let run = |workers: &str| {
+        let out = turnprint_ok(&[
+            "stream",
+            "tests/data/00.txt",
+            "--json",
+            "--workers",
+            workers,
+        ]);
+        let text = String::from_utf8(out.stdout).unwrap();
+        let (summary, candidates) = text
+            .lines()
+            .collect::<Vec<_>>()
+            .split_last()
+            .map(|(s, c)| {
+                let summary: serde_json::Value = serde_json::from_str(s).unwrap();
+                (summary, c.iter().map(|l| l.to_string()).collect::<Vec<_>>())
+            })
+            .unwrap();
+        assert_eq!(summary["workers_lost"], 0);
+        (
+            candidates,
+            summary["worker"]["history_bytes"].as_u64().unwrap(),
+        )
+    };
+    let (one, bytes_one) = run("1");
+    let (three, bytes_three) = run("3");
+    assert!(one.len() > 40);
+    assert_eq!(one, three);
+    // Each worker keeps its own copy of the history.
+    assert!(bytes_three > 2 * bytes_one, "{bytes_three} vs {bytes_one}");
+    let out = turnprint(&["stream", "tests/data/00.txt", "--json", "--workers", "0"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--workers"));
+}
+
 /// `turnprint loops A | head -5` panicked ("failed printing to stdout:
 /// Broken pipe") when head exited before the table was written, and
 /// `stream` ended with an error line and status 1. A reader that stops

@@ -129,6 +129,11 @@ enum Command {
         /// are other roads: EVALUATION_ONLINE.md).
         #[arg(long)]
         no_drift_probe: bool,
+        /// Matching threads, 1 to 64 (the same candidates with any number;
+        /// each keeps its own copy of the history). Default: 2 where the
+        /// machine has a second core, else 1.
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..=64))]
+        workers: Option<u16>,
     },
 }
 
@@ -194,13 +199,17 @@ fn main() -> ExitCode {
             cameras,
             plot,
             no_drift_probe,
+            workers,
         } => {
             let config = turnprint::online::OnlineConfig {
                 top_k: top,
                 drift_probe: !no_drift_probe,
                 // A replay wants throughput: a second matching thread where
                 // there is a second core (the same candidates either way).
-                workers: std::thread::available_parallelism().map_or(1, |n| n.get().min(2)),
+                workers: workers.map_or_else(
+                    || std::thread::available_parallelism().map_or(1, |n| n.get().min(2)),
+                    usize::from,
+                ),
                 ..Default::default()
             };
             if verify && a == Path::new("-") {
