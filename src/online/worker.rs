@@ -21,7 +21,9 @@
 //! ([`Settle`]): the candidates are the same with any number of workers.
 //! A segment's piece of correlations with the history, the same in every
 //! worker, is computed by the first to need it and taken by the others
-//! ([`super::correlator::SharedPieces`]).
+//! ([`super::correlator::SharedPieces`]). A worker lost to a panic (a bug)
+//! reports it as its thread unwinds; the settler then passes over its
+//! matchings, and the caller counts it (`Summary::workers_lost`).
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
