@@ -47,17 +47,34 @@ pub struct Piece {
 /// as before (waiting for a piece's owner coupled them: KITTI 00 streamed
 /// in 31 ms instead of 22).
 pub struct SharedPieces {
+    slots: Mutex<Slots>,
+}
+
+/// The workers still taking pieces, and each piece by boundary number with
+/// how many of them have it.
+struct Slots {
     workers: usize,
-    /// Piece by boundary number, with how many workers have it.
-    slots: Mutex<HashMap<usize, (Arc<Piece>, usize)>>,
+    held: HashMap<usize, (Arc<Piece>, usize)>,
 }
 
 impl SharedPieces {
     /// Pieces shared by `workers` workers.
     pub fn new(workers: usize) -> Self {
         SharedPieces {
-            workers,
-            slots: Mutex::new(HashMap::new()),
+            slots: Mutex::new(Slots {
+                workers,
+                held: HashMap::new(),
+            }),
+        }
+    }
+
+    /// A worker stops taking pieces (it was lost): the pieces every other
+    /// worker has are freed now, and later ones once the others have them.
+    pub fn leave(&self) {
+        if let Ok(mut slots) = self.slots.lock() {
+            let Slots { workers, held } = &mut *slots;
+            *workers = workers.saturating_sub(1);
+            held.retain(|_, (_, taken)| *taken < *workers);
         }
     }
 
@@ -67,19 +84,20 @@ impl SharedPieces {
             .slots
             .lock()
             .ok()
-            .and_then(|s| s.get(&k).map(|s| s.0.clone()));
+            .and_then(|s| s.held.get(&k).map(|s| s.0.clone()));
         let piece = held.unwrap_or_else(|| Arc::new(compute()));
         let Ok(mut slots) = self.slots.lock() else {
             return piece;
         };
+        let Slots { workers, held } = &mut *slots;
         // The first piece stored is the one handed out (two workers may
         // compute it at once). Every worker asks for every boundary once:
         // the last one frees it.
-        let slot = slots.entry(k).or_insert((piece, 0));
+        let slot = held.entry(k).or_insert((piece, 0));
         slot.1 += 1;
         let piece = slot.0.clone();
-        if slot.1 >= self.workers {
-            slots.remove(&k);
+        if slot.1 >= *workers {
+            held.remove(&k);
         }
         piece
     }
@@ -231,9 +249,30 @@ mod tests {
         let second = shared.piece(7, compute);
         assert_eq!(computed.get(), 1);
         assert!(Arc::ptr_eq(&first, &second));
-        assert!(shared.slots.lock().unwrap().is_empty());
+        assert!(shared.slots.lock().unwrap().held.is_empty());
         // Asked for once more after every worker had it: computed anew.
         shared.piece(7, compute);
         assert_eq!(computed.get(), 2);
+    }
+
+    /// Regression: a lost worker never took its pieces, so every later
+    /// piece stayed held for it, for ever.
+    #[test]
+    fn a_lost_worker_leaves_no_piece_held_for_it() {
+        let shared = SharedPieces::new(3);
+        let compute = || Piece {
+            start: 0,
+            len: 1,
+            forward: vec![1.0],
+            reversed: vec![-1.0],
+        };
+        shared.piece(1, compute);
+        shared.piece(1, compute);
+        shared.piece(2, compute);
+        shared.leave();
+        // Boundary 1: both remaining workers have it; 2: one of them.
+        assert_eq!(shared.slots.lock().unwrap().held.len(), 1);
+        shared.piece(2, compute);
+        assert!(shared.slots.lock().unwrap().held.is_empty());
     }
 }

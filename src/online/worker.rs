@@ -84,7 +84,8 @@ pub struct WorkerStats {
     pub skipped: u64,
     /// Periodic proximity probes run (summed over the workers).
     pub probes: u64,
-    /// Candidates emitted.
+    /// Candidates emitted (counted where they are settled, filled in by
+    /// `Detector::finish`).
     pub candidates: u64,
     /// Time spent matching and verifying (seconds).
     pub busy_s: f64,
@@ -102,7 +103,8 @@ pub struct WorkerStats {
 impl WorkerStats {
     /// The figures of several workers as one: each takes every message and
     /// keeps every sample (the first one's counts), and runs its share of
-    /// the matchings (summed); the history bytes are all the copies'.
+    /// the matchings (summed); the history bytes are all the copies'. The
+    /// candidates are counted where they are settled, not here.
     pub fn combined(workers: &[WorkerStats]) -> WorkerStats {
         let Some(first) = workers.first() else {
             return WorkerStats::default();
@@ -111,7 +113,6 @@ impl WorkerStats {
         WorkerStats {
             matched: sum(|w| w.matched),
             probes: sum(|w| w.probes),
-            candidates: sum(|w| w.candidates),
             history_bytes: sum(|w| w.history_bytes),
             busy_s: workers.iter().map(|w| w.busy_s).sum(),
             max_match_s: workers.iter().map(|w| w.max_match_s).fold(0.0, f64::max),
@@ -139,18 +140,26 @@ pub enum Report {
     Lost(usize),
 }
 
-/// Tells the settler when its worker's thread unwinds from a panic, so the
-/// other workers' candidates keep flowing instead of waiting for matchings
-/// that will never come.
+/// Tells the settler and the shared pieces when its worker's thread
+/// unwinds from a panic, so the other workers' candidates keep flowing
+/// instead of waiting for matchings that will never come, and no piece is
+/// held for ever for the lost worker.
 struct Mourner {
     tx: Option<Sender<Report>>,
+    pieces: Option<Arc<SharedPieces>>,
     replica: usize,
 }
 
 impl Drop for Mourner {
     fn drop(&mut self) {
-        if let (true, Some(tx)) = (std::thread::panicking(), &self.tx) {
+        if !std::thread::panicking() {
+            return;
+        }
+        if let Some(tx) = &self.tx {
             let _ = tx.send(Report::Lost(self.replica));
+        }
+        if let Some(pieces) = &self.pieces {
+            pieces.leave();
         }
     }
 }
@@ -579,6 +588,7 @@ fn run(
             Sink::Settler(tx) => Some(tx.clone()),
             Sink::Caller(..) => None,
         },
+        pieces: state.searcher.shared.clone(),
         replica: state.replica,
     };
     let half = rx.capacity().unwrap_or(0) / 2;
