@@ -112,13 +112,9 @@ pub struct Detector {
     poses: usize,
     summary: Summary,
     started: Option<Instant>,
-    /// Each worker's queue.
-    tx: Vec<Sender<Arc<Message>>>,
-    /// With [`Overflow::Block`], each worker's word that its queue is half
-    /// empty (see `send`).
-    room: Vec<Receiver<()>>,
+    /// The live workers.
+    workers: Vec<Link>,
     events: Receiver<CandidateEvent>,
-    workers: Vec<std::thread::JoinHandle<WorkerStats>>,
     /// With several workers, the thread that settles their matchings.
     settler: Option<std::thread::JoinHandle<()>>,
     /// Candidates settled so far (by the only worker or the settler).
@@ -128,6 +124,25 @@ pub struct Detector {
     flush_samples: usize,
     /// A send was deferred since the last one went through.
     merging: bool,
+}
+
+/// The caller's end of one worker.
+struct Link {
+    /// Its queue.
+    tx: Sender<Arc<Message>>,
+    /// With [`Overflow::Block`], its word that its queue is half empty (see
+    /// `send`).
+    room: Receiver<()>,
+    thread: std::thread::JoinHandle<WorkerStats>,
+}
+
+impl Link {
+    /// Closes the queue and waits for the worker's figures (`None`: it was
+    /// lost).
+    fn join(self) -> Option<WorkerStats> {
+        drop(self.tx);
+        self.thread.join().ok()
+    }
 }
 
 impl Detector {
@@ -149,7 +164,7 @@ impl Detector {
             }
         };
         let pieces = (n > 1).then(|| Arc::new(SharedPieces::new(n)));
-        let (mut tx, mut room, mut workers) = (Vec::new(), Vec::new(), Vec::new());
+        let mut workers = Vec::new();
         for replica in 0..n {
             let (wtx, wrx) = bounded(capacity.max(1));
             let (room_tx, room_rx) = bounded(1);
@@ -159,9 +174,11 @@ impl Detector {
                 Some(stx) => Sink::Settler(stx.clone()),
             };
             let state = WorkerState::replica(config.clone(), replica, pieces.clone());
-            workers.push(spawn(state, wrx, sink, room_tx));
-            tx.push(wtx);
-            room.push(room_rx);
+            workers.push(Link {
+                tx: wtx,
+                room: room_rx,
+                thread: spawn(state, wrx, sink, room_tx),
+            });
         }
         let flush_samples = if config.proximity {
             config.probe_every.max(1)
@@ -178,10 +195,8 @@ impl Detector {
             poses: 0,
             summary: Summary::default(),
             started: None,
-            tx,
-            room,
-            events,
             workers,
+            events,
             settler,
             emitted,
             flush_samples,
@@ -256,7 +271,7 @@ impl Detector {
             return;
         };
         self.prune_lost();
-        if self.tx.is_empty() {
+        if self.workers.is_empty() {
             // Every worker is lost: nothing would match the samples.
             self.outbox = Outbox::default();
             self.pending.clear();
@@ -269,7 +284,7 @@ impl Detector {
             frame,
             merged: self.merging,
         };
-        match self.overflow {
+        let sent = match self.overflow {
             Overflow::Block => {
                 // A full queue is waited out until it is half empty, not
                 // one message at a time: waking the caller for every
@@ -280,32 +295,26 @@ impl Detector {
                 // has no word to wait for, just blocks).
                 let m = Arc::new(m);
                 let mut sent = true;
-                for (tx, room) in self.tx.iter().zip(&self.room) {
-                    sent &= match tx.try_send(m.clone()) {
+                for w in &self.workers {
+                    sent &= match w.tx.try_send(m.clone()) {
                         Err(TrySendError::Full(m)) => {
-                            let _ = room.recv();
-                            tx.send(m).is_ok()
+                            let _ = w.room.recv();
+                            w.tx.send(m).is_ok()
                         }
                         r => r.is_ok(),
                     };
                 }
-                if sent {
-                    self.summary.messages += 1;
-                    self.merging = false;
-                }
+                sent
             }
             // Every worker takes every message, or none does: only this
             // thread sends, so a queue with room keeps it until the send.
-            Overflow::MergeLatest if self.tx.iter().all(|tx| !tx.is_full()) => {
+            Overflow::MergeLatest if self.workers.iter().all(|w| !w.tx.is_full()) => {
                 let m = Arc::new(m);
                 let mut sent = true;
-                for tx in &self.tx {
-                    sent &= tx.try_send(m.clone()).is_ok();
+                for w in &self.workers {
+                    sent &= w.tx.try_send(m.clone()).is_ok();
                 }
-                if sent {
-                    self.summary.messages += 1;
-                    self.merging = false;
-                }
+                sent
             }
             Overflow::MergeLatest => {
                 self.summary.deferred += 1;
@@ -324,7 +333,12 @@ impl Detector {
                     self.outbox = out;
                 }
                 self.pending = earlier;
+                false
             }
+        };
+        if sent {
+            self.summary.messages += 1;
+            self.merging = false;
         }
     }
 
@@ -332,16 +346,16 @@ impl Detector {
     /// closed (a panic), so that a lost worker's full queue neither blocks
     /// the caller nor defers the other workers' messages for ever.
     fn prune_lost(&mut self) {
-        let mut i = 0;
-        while i < self.workers.len() {
-            if self.workers[i].is_finished() {
-                let _ = self.workers.remove(i).join();
-                self.tx.remove(i);
-                self.room.remove(i);
-                self.summary.workers_lost += 1;
-            } else {
-                i += 1;
-            }
+        if self.workers.iter().all(|w| !w.thread.is_finished()) {
+            return;
+        }
+        let (lost, live) = std::mem::take(&mut self.workers)
+            .into_iter()
+            .partition(|w| w.thread.is_finished());
+        self.workers = live;
+        for w in lost {
+            w.join();
+            self.summary.workers_lost += 1;
         }
     }
 
@@ -390,12 +404,11 @@ impl Detector {
             self.send();
             self.overflow = overflow;
         }
-        self.tx.clear();
         let mut stats = Vec::new();
         for w in self.workers.drain(..) {
             match w.join() {
-                Ok(s) => stats.push(s),
-                Err(_) => self.summary.workers_lost += 1,
+                Some(s) => stats.push(s),
+                None => self.summary.workers_lost += 1,
             }
         }
         self.summary.worker = WorkerStats::combined(&stats);
@@ -412,9 +425,8 @@ impl Detector {
 
 impl Drop for Detector {
     fn drop(&mut self) {
-        self.tx.clear();
         for w in self.workers.drain(..) {
-            let _ = w.join();
+            w.join();
         }
         if let Some(settler) = self.settler.take() {
             let _ = settler.join();
