@@ -17,9 +17,6 @@ use crate::{free_handle, guarded, hand_over, row_major, set_error, TP_ACCEPTED, 
 const TP_REJECTED_NON_FINITE: c_int = 1;
 const TP_REJECTED_OUT_OF_ORDER: c_int = 2;
 const TP_REJECTED_DUPLICATE: c_int = 3;
-/// Most matching threads `tp_options.workers` takes (each keeps a copy of
-/// the history).
-const MAX_WORKERS: u32 = 64;
 
 /// Settings (`tp_options`).
 #[repr(C)]
@@ -180,7 +177,9 @@ fn invalid(o: &TpOptions) -> Option<&'static str> {
         Some("queue_capacity must be at least 1")
     } else if !(o.jump_factor.is_finite() && o.jump_factor > 1.0) {
         Some("jump_factor must be a finite number above 1")
-    } else if !(1..=MAX_WORKERS).contains(&o.workers) {
+    } else if !(1..=OnlineConfig::MAX_WORKERS).contains(&(o.workers as usize)) {
+        // The message names the bound (checked below at compile time).
+        const _: () = assert!(OnlineConfig::MAX_WORKERS == 64);
         Some("workers must be between 1 and 64")
     } else {
         None

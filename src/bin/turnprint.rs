@@ -132,7 +132,7 @@ enum Command {
         /// Matching threads, 1 to 64 (the same candidates with any number;
         /// each keeps its own copy of the history). Default: 2 where the
         /// machine has a second core, else 1.
-        #[arg(long, value_parser = clap::value_parser!(u16).range(1..=64))]
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..=turnprint::online::OnlineConfig::MAX_WORKERS as i64))]
         workers: Option<u16>,
     },
 }

@@ -143,6 +143,11 @@ impl Default for OnlineConfig {
 }
 
 impl OnlineConfig {
+    /// Most matching threads the command line and the C ABI take: each
+    /// keeps its own copy of the history, so beyond the cores it is memory
+    /// for nothing.
+    pub const MAX_WORKERS: usize = 64;
+
     /// Growth of the proximity probe's radius per unit of path between the
     /// two parts: the drift prior's position rate with [`Self::drift_probe`]
     /// (else 0: the consistent map's probe only).
