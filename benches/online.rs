@@ -143,20 +143,22 @@ fn match_segment_on(c: &mut Criterion, name: &str, points: &[Vector3<f64>]) {
     g.bench_function(format!("match_segment_100k_{name}_search"), |b| {
         b.iter(|| {
             state.searcher.add_piece(&state.history, k, keep);
-            state.searcher.shape_candidates(&state.history, &config)
+            let s = &state.searcher;
+            s.shape_candidates(&state.history.now(), &s.pieces, &config)
         })
     });
     g.bench_function(format!("match_segment_100k_{name}_search_verify"), |b| {
         b.iter(|| {
             state.searcher.add_piece(&state.history, k, keep);
-            let shape = state.searcher.shape_candidates(&state.history, &config);
-            verify_all(&state.history, &frame, &shape, None, &config)
+            let (s, h) = (&state.searcher, &state.history.now());
+            let shape = s.shape_candidates(h, &s.pieces, &config);
+            verify_all(h, &frame, &shape, None, &config)
         })
     });
     // The network registration of the newest window at its widest reach:
     // as far from its start as KITTI 00's last revisit (3 km).
     let (h, spatial) = (
-        &state.history,
+        &state.history.now(),
         state.searcher.spatial.as_ref().expect("indexed"),
     );
     let prior = config.pipeline.drift_prior.expect("loops prior");

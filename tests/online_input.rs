@@ -162,8 +162,8 @@ fn standing_still_for_a_long_time_adds_nothing() {
     assert!((turning(&a) - turning(&b)).abs() < 0.01 * turning(&a));
 }
 
-/// With one worker or two (each with its own copy of the history, both
-/// given every message or neither).
+/// With one matching thread or two (the second shares out the matchings of
+/// what the queue held at once).
 #[test]
 fn a_full_queue_defers_and_skips_but_loses_no_sample() {
     let points = kitti("00");

@@ -1,8 +1,9 @@
-//! `OnlineConfig::workers`: several matching threads, each with its own
-//! copy of the history and every n-th matching, give exactly the
-//! candidates of one, in the same order with the same ids: what depends on
-//! earlier matchings (a registration too soon after the previous one, the
-//! ids) is settled in stream order (`worker::Settle`).
+//! `OnlineConfig::workers`: several matching threads, sharing out the
+//! matchings of the hand-overs queued at once over one history (each
+//! matching reads it as it stood when the matching fell due), give exactly
+//! the candidates of one, in the same order with the same ids: what
+//! depends on earlier matchings (a registration too soon after the
+//! previous one, the ids) is settled in stream order (`worker::Settle`).
 
 #![cfg(feature = "eval")]
 
@@ -12,7 +13,9 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use turnprint::eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
-use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Source};
+use turnprint::online::{
+    CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Source, Summary,
+};
 
 fn kitti(name: &str) -> Vec<Vector3<f64>> {
     let path = format!("tests/data/{name}.txt");
@@ -22,8 +25,8 @@ fn kitti(name: &str) -> Vec<Vector3<f64>> {
 }
 
 /// Every candidate of a replay with `workers` threads, in arrival order,
-/// and the number the summary counts.
-fn replayed(points: &[Vector3<f64>], workers: usize) -> (Vec<CandidateEvent>, u64) {
+/// and the summary.
+fn replayed(points: &[Vector3<f64>], workers: usize) -> (Vec<CandidateEvent>, Summary) {
     let config = OnlineConfig {
         workers,
         ..Default::default()
@@ -36,7 +39,7 @@ fn replayed(points: &[Vector3<f64>], workers: usize) -> (Vec<CandidateEvent>, u6
     }
     let (rest, summary) = det.finish();
     out.extend(rest);
-    (out, summary.worker.candidates)
+    (out, summary)
 }
 
 /// The candidates, every field (`Debug` prints floats exactly).
@@ -45,11 +48,12 @@ fn printed(events: &[CandidateEvent]) -> Vec<String> {
 }
 
 fn same_with_any_number_of_workers(points: &[Vector3<f64>]) -> Vec<CandidateEvent> {
-    let (one, counted) = replayed(points, 1);
-    assert_eq!(counted, one.len() as u64);
+    let (one, alone) = replayed(points, 1);
+    assert_eq!(alone.worker.candidates, one.len() as u64);
+    assert_eq!(alone.worker.parallel_batches, 0);
     assert!(!one.is_empty());
     for workers in [2, 3] {
-        let (many, counted) = replayed(points, workers);
+        let (many, summary) = replayed(points, workers);
         let (a, b) = (printed(&one), printed(&many));
         if let Some(i) = (0..a.len().max(b.len())).find(|&i| a.get(i) != b.get(i)) {
             panic!(
@@ -60,7 +64,14 @@ fn same_with_any_number_of_workers(points: &[Vector3<f64>]) -> Vec<CandidateEven
                 a.get(i)
             );
         }
-        assert_eq!(counted, one.len() as u64, "{workers} workers' count");
+        assert_eq!(
+            summary.worker.candidates,
+            one.len() as u64,
+            "{workers} workers' count"
+        );
+        // The matchings were shared out, over the one history.
+        assert!(summary.worker.parallel_batches > 0, "{workers} workers");
+        assert_eq!(summary.worker.history_bytes, alone.worker.history_bytes);
     }
     one
 }

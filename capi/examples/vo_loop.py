@@ -53,7 +53,8 @@ def main(argv):
         show(rest)
     print(f"summary poses={summary['poses']} accepted={summary['accepted']} "
           f"segments={summary['segments']} candidates={summary['candidates']} "
-          f"skipped={summary['skipped']} history_bytes={summary['history_bytes']}")
+          f"skipped={summary['skipped']} history_bytes={summary['history_bytes']} "
+          f"parallel_batches={summary['parallel_batches']}")
 
 
 if __name__ == "__main__":

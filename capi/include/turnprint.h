@@ -69,10 +69,11 @@ typedef struct tp_options {
     /* A step longer than this many typical steps is a jump (GPS glitch, VO
      * failure) and goes through the jump filter (default 25). */
     double jump_factor;
-    /* Matching threads, 1 to 64 (default 1). Each keeps its own copy of
-     * the history (about 125 bytes per pose) and runs every n-th matching;
-     * the candidates are the same with any number. 2 keeps up with a file
-     * replay on two cores; 1 leaves the other cores to the odometry. */
+    /* Matching threads, 1 to 64 (default 1), over one history: the
+     * matchings of the hand-overs queued at once are shared out; the
+     * candidates and the memory are the same with any number. 2 keeps up
+     * with a file replay on two cores; 1 leaves the other cores to the
+     * odometry. */
     uint32_t workers;
 } tp_options;
 
@@ -140,11 +141,14 @@ typedef struct tp_summary {
     uint64_t poses, accepted;
     uint64_t non_finite, out_of_order, duplicate, outliers, jumps;
     uint64_t segments, candidates, skipped;
-    /* Memory held by the history at the end (every worker's copy). */
+    /* Memory held by the history at the end. */
     uint64_t history_bytes;
-    /* Matching threads lost to an internal error (tp_detector_finish then
-     * returns TP_ERROR; the others carried on). */
+    /* 1 when the matching was lost to an internal error
+     * (tp_detector_finish then returns TP_ERROR). */
     uint64_t workers_lost;
+    /* Batches of matchings shared out over more than one thread (see
+     * tp_options.workers). */
+    uint64_t parallel_batches;
 } tp_summary;
 
 /* The library's default settings. Returns TP_ERROR when out is NULL. */

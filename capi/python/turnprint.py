@@ -62,7 +62,7 @@ class _Summary(C.Structure):
     _fields_ = [(name, C.c_uint64) for name in (
         "poses", "accepted", "non_finite", "out_of_order", "duplicate",
         "outliers", "jumps", "segments", "candidates", "skipped",
-        "history_bytes", "workers_lost")]
+        "history_bytes", "workers_lost", "parallel_batches")]
 
 
 class _Hypothesis(C.Structure):

@@ -128,8 +128,10 @@ pub struct TpSummary {
     pub skipped: u64,
     /// Bytes held by the history.
     pub history_bytes: u64,
-    /// Matching threads lost to an internal error.
+    /// 1 when the matching thread was lost to an internal error.
     pub workers_lost: u64,
+    /// Batches of matchings shared out over more than one thread.
+    pub parallel_batches: u64,
 }
 
 /// The detector behind a `tp_detector *`: candidates polled from the
@@ -329,10 +331,9 @@ pub unsafe extern "C" fn tp_detector_finish(
             *out = summary_of(&counts);
         }
         if counts.workers_lost > 0 {
-            set_error(&format!(
-                "tp_detector_finish: {} matching thread(s) stopped on an internal error; the candidates polled are right, but their matchings' are missing",
-                counts.workers_lost
-            ));
+            set_error(
+                "tp_detector_finish: the matching stopped on an internal error; the candidates polled are right, but those of the samples after it are missing",
+            );
             return TP_ERROR;
         }
         TP_ACCEPTED
@@ -406,5 +407,6 @@ fn summary_of(s: &Summary) -> TpSummary {
         skipped: s.worker.skipped,
         history_bytes: s.worker.history_bytes,
         workers_lost: s.workers_lost,
+        parallel_batches: s.worker.parallel_batches,
     }
 }

@@ -129,9 +129,9 @@ enum Command {
         /// are other roads: EVALUATION_ONLINE.md).
         #[arg(long)]
         no_drift_probe: bool,
-        /// Matching threads, 1 to 64 (the same candidates with any number;
-        /// each keeps its own copy of the history). Default: 2 where the
-        /// machine has a second core, else 1.
+        /// Matching threads, 1 to 64, over one history (the same candidates
+        /// and memory with any number). Default: 2 where the machine has a
+        /// second core, else 1.
         #[arg(long, value_parser = clap::value_parser!(u16).range(1..=turnprint::online::OnlineConfig::MAX_WORKERS as i64))]
         workers: Option<u16>,
     },

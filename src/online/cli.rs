@@ -143,15 +143,12 @@ fn finish(detector: Detector, name: &str, out: &mut dyn Write) -> Result<Summary
     writeln!(out, "{s}").map_err(stdout_error)?;
     out.flush().map_err(stdout_error)?;
     if summary.workers_lost > 0 {
-        // A bug, not the input: the candidates written are right, but the
-        // lost workers' matchings are missing, so the run must not pass
-        // for a complete one.
+        // A bug, not the input: the candidates written are right, but
+        // those of the samples after the loss are missing, so the run must
+        // not pass for a complete one.
         return Err(Error::input(
             name,
-            format!(
-                "{} matching worker(s) stopped on an internal error (the panic message is above); their matchings' candidates are missing",
-                summary.workers_lost
-            ),
+            "the matching worker stopped on an internal error (the panic message is above); the candidates of the poses after it are missing",
         ));
     }
     Ok(summary)

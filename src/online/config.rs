@@ -77,12 +77,13 @@ pub struct OnlineConfig {
     /// [`super::Overflow::Block`] the caller waits instead of merging, and
     /// the queue is deeper (the worker module says how).
     pub queue_capacity: usize,
-    /// Matching threads. Each keeps its own copy of the history (the memory
-    /// per pose is this many times one worker's) and runs every
-    /// `workers`-th matching; the candidates are the same, in the same
-    /// order, with any number of them (`worker::Settle`). 1 for a detector
-    /// embedded beside odometry, which needs its cores; 2 for a replay
-    /// (`turnprint stream`), which wants throughput.
+    /// Matching threads over the one history: the matchings of the
+    /// hand-overs queued at once are shared out among them
+    /// ([`super::worker`]); the candidates (in the same order) and the
+    /// memory are the same with any number. 1 for a detector embedded
+    /// beside odometry, which needs its cores (and whose queue seldom holds
+    /// two hand-overs); 2 for a replay (`turnprint stream`), which wants
+    /// throughput.
     pub workers: usize,
     /// A step longer than this many typical steps is a jump (GPS glitch,
     /// VO failure) and goes through the jump filter.
@@ -143,9 +144,8 @@ impl Default for OnlineConfig {
 }
 
 impl OnlineConfig {
-    /// Most matching threads the command line and the C ABI take: each
-    /// keeps its own copy of the history, so beyond the cores it is memory
-    /// for nothing.
+    /// Most matching threads the command line and the C ABI take (beyond
+    /// the cores they gain nothing).
     pub const MAX_WORKERS: usize = 64;
 
     /// Growth of the proximity probe's radius per unit of path between the

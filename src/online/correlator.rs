@@ -21,8 +21,7 @@
 //! `N_max` full correlations. Means and deviations come from prefix sums, so
 //! the ZNCC equals the batch correlator's (to `f32` rounding).
 
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::OnceLock;
 
 use rustfft::num_complex::Complex;
 
@@ -41,65 +40,46 @@ pub struct Piece {
     pub reversed: Vec<f32>,
 }
 
-/// Pieces shared by several workers, each with the same history: the first
-/// to reach a boundary computes its piece, the others take it if it is
-/// there by then. Nobody waits, so the workers stay as free of each other
-/// as before (waiting for a piece's owner coupled them: KITTI 00 streamed
-/// in 31 ms instead of 22).
-pub struct SharedPieces {
-    slots: Mutex<Slots>,
+/// A segment's piece, computed the first time a matching needs it (by the
+/// thread that gets there first; another that needs it meanwhile waits for
+/// it), against the history as it stood when the segment was finalised.
+/// Computing it there rather than where the segment is taken in moves the
+/// worker's largest serial cost into the matchings, which run in parallel.
+#[derive(Debug)]
+pub struct LazyPiece {
+    /// First signature sample of the piece.
+    pub start: usize,
+    /// Number of samples.
+    pub len: usize,
+    /// Signature samples in the history when the segment was finalised.
+    history: usize,
+    piece: OnceLock<Piece>,
 }
 
-/// The workers still taking pieces, and each piece by boundary number with
-/// how many of them have it.
-struct Slots {
-    workers: usize,
-    held: HashMap<usize, (Arc<Piece>, usize)>,
-}
-
-impl SharedPieces {
-    /// Pieces shared by `workers` workers.
-    pub fn new(workers: usize) -> Self {
-        SharedPieces {
-            slots: Mutex::new(Slots {
-                workers,
-                held: HashMap::new(),
-            }),
+impl LazyPiece {
+    /// The piece `[start, start + len)` against the first `history`
+    /// signature samples.
+    pub fn new(start: usize, len: usize, history: usize) -> Self {
+        LazyPiece {
+            start,
+            len,
+            history,
+            piece: OnceLock::new(),
         }
     }
 
-    /// A worker stops taking pieces (it was lost): the pieces every other
-    /// worker has are freed now, and later ones once the others have them.
-    pub fn leave(&self) {
-        if let Ok(mut slots) = self.slots.lock() {
-            let Slots { workers, held } = &mut *slots;
-            *workers = workers.saturating_sub(1);
-            held.retain(|_, (_, taken)| *taken < *workers);
-        }
+    /// The piece, computed now if no one has yet (`a` holds at least the
+    /// history it is computed against).
+    pub fn get(&self, correlator: &BlockCorrelator, a: &[f32]) -> &Piece {
+        self.piece
+            .get_or_init(|| correlator.piece(&a[..self.history], self.start, self.len))
     }
 
-    /// The piece of boundary `k`: another worker's, or `compute`d.
-    pub fn piece(&self, k: usize, compute: impl FnOnce() -> Piece) -> Arc<Piece> {
-        let held = self
-            .slots
-            .lock()
-            .ok()
-            .and_then(|s| s.held.get(&k).map(|s| s.0.clone()));
-        let piece = held.unwrap_or_else(|| Arc::new(compute()));
-        let Ok(mut slots) = self.slots.lock() else {
-            return piece;
-        };
-        let Slots { workers, held } = &mut *slots;
-        // The first piece stored is the one handed out (two workers may
-        // compute it at once). Every worker asks for every boundary once:
-        // the last one frees it.
-        let slot = held.entry(k).or_insert((piece, 0));
-        slot.1 += 1;
-        let piece = slot.0.clone();
-        if slot.1 >= *workers {
-            held.remove(&k);
-        }
-        piece
+    /// Bytes held (none until computed).
+    pub fn bytes(&self) -> usize {
+        self.piece
+            .get()
+            .map_or(0, |p| (p.forward.capacity() + p.reversed.capacity()) * 4)
     }
 }
 
@@ -150,8 +130,9 @@ impl BlockCorrelator {
         }
     }
 
-    /// Raw correlations of the piece `a[start..start+len]` with all of `a`.
-    pub fn piece(&mut self, a: &[f32], start: usize, len: usize) -> Piece {
+    /// Raw correlations of the piece `a[start..start+len]` with all of `a`
+    /// (a prefix of the history taken in).
+    pub fn piece(&self, a: &[f32], start: usize, len: usize) -> Piece {
         let h = a.len();
         let p = &a[start..start + len];
         let mut forward = vec![0f32; h];
@@ -179,17 +160,19 @@ impl BlockCorrelator {
         }
         let t = &self.transform;
         let block = t.block();
+        let mut scratch = Vec::new();
         // The inverse transform's 1/M folded into the piece's spectrum.
         let mut query = Vec::new();
-        t.spectrum_into(p, 1.0 / (2 * block) as f32, &mut query, &mut self.scratch);
+        t.spectrum_into(p, 1.0 / (2 * block) as f32, &mut query, &mut scratch);
         let mut buf = Vec::new();
-        // The finished blocks' spectra, and those of the rest (the open
-        // tail) made for this piece only.
-        let rest: Vec<_> = a[(self.spectra.len() * block).min(h)..]
+        // The blocks finished within `a` keep their spectra; those of the
+        // rest (the open tail) are made for this piece only.
+        let done = &self.spectra[..self.spectra.len().min(h / block)];
+        let rest: Vec<_> = a[done.len() * block..]
             .chunks(block)
-            .map(|chunk| t.spectrum(chunk, &mut self.scratch))
+            .map(|chunk| t.spectrum(chunk, &mut scratch))
             .collect();
-        for (j, spectrum) in self.spectra.iter().chain(&rest).enumerate() {
+        for (j, spectrum) in done.iter().chain(&rest).enumerate() {
             t.add_block(
                 j,
                 spectrum,
@@ -198,7 +181,7 @@ impl BlockCorrelator {
                 &mut forward,
                 &mut reversed,
                 &mut buf,
-                &mut self.scratch,
+                &mut scratch,
             );
         }
         // `add_block` adds the convolution; the reversed query negates it.
@@ -225,54 +208,5 @@ impl BlockCorrelator {
     pub fn bytes(&self) -> usize {
         self.spectra.iter().map(|s| s.capacity() * 8).sum::<usize>()
             + (self.prefix.capacity() + self.prefix_sq.capacity()) * 8
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_shared_piece_is_computed_once_and_freed_once_every_worker_has_it() {
-        let shared = SharedPieces::new(2);
-        let computed = std::cell::Cell::new(0);
-        let compute = || {
-            computed.set(computed.get() + 1);
-            Piece {
-                start: 0,
-                len: 1,
-                forward: vec![1.0],
-                reversed: vec![-1.0],
-            }
-        };
-        let first = shared.piece(7, compute);
-        let second = shared.piece(7, compute);
-        assert_eq!(computed.get(), 1);
-        assert!(Arc::ptr_eq(&first, &second));
-        assert!(shared.slots.lock().unwrap().held.is_empty());
-        // Asked for once more after every worker had it: computed anew.
-        shared.piece(7, compute);
-        assert_eq!(computed.get(), 2);
-    }
-
-    /// Regression: a lost worker never took its pieces, so every later
-    /// piece stayed held for it, for ever.
-    #[test]
-    fn a_lost_worker_leaves_no_piece_held_for_it() {
-        let shared = SharedPieces::new(3);
-        let compute = || Piece {
-            start: 0,
-            len: 1,
-            forward: vec![1.0],
-            reversed: vec![-1.0],
-        };
-        shared.piece(1, compute);
-        shared.piece(1, compute);
-        shared.piece(2, compute);
-        shared.leave();
-        // Boundary 1: both remaining workers have it; 2: one of them.
-        assert_eq!(shared.slots.lock().unwrap().held.len(), 1);
-        shared.piece(2, compute);
-        assert!(shared.slots.lock().unwrap().held.is_empty());
     }
 }

@@ -6,10 +6,9 @@
 //! poll() ◀────────────────────────── candidates ◀──────────────────────────┘
 //! ```
 //!
-//! With [`OnlineConfig::workers`] above 1, every worker takes every message
-//! (one shared copy) and keeps its own history, runs its share of the
-//! matchings, and a settling thread puts their candidates back in stream
-//! order.
+//! With [`OnlineConfig::workers`] above 1, the worker runs the matchings of
+//! the hand-overs it finds queued on that many threads, over its one
+//! history ([`super::worker`]).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -19,14 +18,11 @@ use crossbeam::channel::{bounded, unbounded, Receiver, Sender, TrySendError};
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::Serialize;
 
-use super::correlator::SharedPieces;
 use super::events::CandidateEvent;
 use super::frontend::{Frontend, Outbox, TrackParams};
 use super::guard::{GuardCounts, Rejection, TimeGuard};
 use super::search::Frame;
-use super::worker::{
-    spawn, spawn_settler, Message, Overflow, Settle, Sink, WorkerState, WorkerStats,
-};
+use super::worker::{spawn, Message, Overflow, Settle, WorkerState, WorkerStats};
 use super::OnlineConfig;
 
 /// Track samples past which a deferred outbox is sealed (see `send`): its
@@ -90,9 +86,9 @@ pub struct Summary {
     pub deferred: u64,
     /// What the worker did.
     pub worker: WorkerStats,
-    /// Workers whose thread stopped before the end (a panic). The others
-    /// carry on; the lost ones' share of the matchings is missing. The CLI
-    /// reports it as an error.
+    /// 1 when the worker's thread stopped before the end (a panic): the
+    /// samples handed over after it are dropped, and no candidate comes.
+    /// The CLI reports it as an error.
     pub workers_lost: u64,
     /// Wall time from the first push to the end of `finish` (seconds).
     pub wall_s: f64,
@@ -112,12 +108,10 @@ pub struct Detector {
     poses: usize,
     summary: Summary,
     started: Option<Instant>,
-    /// The live workers.
-    workers: Vec<Link>,
+    /// The worker, until it is lost.
+    worker: Option<Link>,
     events: Receiver<CandidateEvent>,
-    /// With several workers, the thread that settles their matchings.
-    settler: Option<std::thread::JoinHandle<()>>,
-    /// Candidates settled so far (by the only worker or the settler).
+    /// Candidates settled so far, counted where a lost worker leaves them.
     emitted: Arc<AtomicU64>,
     /// Outbox size (track samples) that triggers a hand-over without a new
     /// boundary: the periodic proximity probe.
@@ -126,10 +120,10 @@ pub struct Detector {
     merging: bool,
 }
 
-/// The caller's end of one worker.
+/// The caller's end of the worker.
 struct Link {
     /// Its queue.
-    tx: Sender<Arc<Message>>,
+    tx: Sender<Message>,
     /// With [`Overflow::Block`], its word that its queue is half empty (see
     /// `send`).
     room: Receiver<()>,
@@ -153,33 +147,16 @@ impl Detector {
             Overflow::Block => config.queue_capacity.max(REPLAY_QUEUE),
         };
         let (etx, events) = unbounded();
-        let n = config.workers.max(1);
         let emitted = Arc::new(AtomicU64::new(0));
-        let (stx, settler) = match n {
-            1 => (None, None),
-            _ => {
-                let (stx, srx) = unbounded();
-                let settle = Settle::new(&config, emitted.clone());
-                (Some(stx), Some(spawn_settler(settle, n, srx, etx.clone())))
-            }
+        let (wtx, wrx) = bounded(capacity.max(1));
+        let (room_tx, room_rx) = bounded(1);
+        let room_tx = (overflow == Overflow::Block).then_some(room_tx);
+        let settle = Settle::new(&config, emitted.clone());
+        let worker = Link {
+            tx: wtx,
+            room: room_rx,
+            thread: spawn(WorkerState::new(config.clone()), wrx, etx, settle, room_tx),
         };
-        let pieces = (n > 1).then(|| Arc::new(SharedPieces::new(n)));
-        let mut workers = Vec::new();
-        for replica in 0..n {
-            let (wtx, wrx) = bounded(capacity.max(1));
-            let (room_tx, room_rx) = bounded(1);
-            let room_tx = (overflow == Overflow::Block).then_some(room_tx);
-            let sink = match &stx {
-                None => Sink::Caller(etx.clone(), Settle::new(&config, emitted.clone())),
-                Some(stx) => Sink::Settler(stx.clone()),
-            };
-            let state = WorkerState::replica(config.clone(), replica, pieces.clone());
-            workers.push(Link {
-                tx: wtx,
-                room: room_rx,
-                thread: spawn(state, wrx, sink, room_tx),
-            });
-        }
         let flush_samples = if config.proximity {
             config.probe_every.max(1)
         } else {
@@ -195,9 +172,8 @@ impl Detector {
             poses: 0,
             summary: Summary::default(),
             started: None,
-            workers,
+            worker: Some(worker),
             events,
-            settler,
             emitted,
             flush_samples,
             merging: false,
@@ -264,19 +240,19 @@ impl Detector {
         })
     }
 
-    /// Hands the outbox to the workers (or keeps it, per the overflow
+    /// Hands the outbox to the worker (or keeps it, per the overflow
     /// policy).
     fn send(&mut self) {
         let Some(frame) = self.frame() else {
             return;
         };
         self.prune_lost();
-        if self.workers.is_empty() {
-            // Every worker is lost: nothing would match the samples.
+        let Some(w) = &self.worker else {
+            // The worker is lost: nothing would match the samples.
             self.outbox = Outbox::default();
             self.pending.clear();
             return;
-        }
+        };
         let m = Message {
             earlier: std::mem::take(&mut self.pending),
             out: std::mem::take(&mut self.outbox),
@@ -293,33 +269,21 @@ impl Detector {
                 // word still blocks, so a stale word costs one wake, never
                 // a message (and a live detector's last hand-over, which
                 // has no word to wait for, just blocks).
-                let m = Arc::new(m);
-                let mut sent = true;
-                for w in &self.workers {
-                    sent &= match w.tx.try_send(m.clone()) {
-                        Err(TrySendError::Full(m)) => {
-                            let _ = w.room.recv();
-                            w.tx.send(m).is_ok()
-                        }
-                        r => r.is_ok(),
-                    };
+                match w.tx.try_send(m) {
+                    Err(TrySendError::Full(m)) => {
+                        let _ = w.room.recv();
+                        w.tx.send(m).is_ok()
+                    }
+                    r => r.is_ok(),
                 }
-                sent
             }
-            // Every worker takes every message, or none does: only this
-            // thread sends, so a queue with room keeps it until the send.
-            Overflow::MergeLatest if self.workers.iter().all(|w| !w.tx.is_full()) => {
-                let m = Arc::new(m);
-                let mut sent = true;
-                for w in &self.workers {
-                    sent &= w.tx.try_send(m.clone()).is_ok();
-                }
-                sent
-            }
+            // Only this thread sends, so a queue with room keeps it until
+            // the send.
+            Overflow::MergeLatest if !w.tx.is_full() => w.tx.try_send(m).is_ok(),
             Overflow::MergeLatest => {
                 self.summary.deferred += 1;
                 self.merging = true;
-                // While the workers lag the records pile up; grown in one
+                // While the worker lags the records pile up; grown in one
                 // buffer, each doubling would copy all of them on the
                 // caller's thread (pushes of 5-50 ms after minutes of
                 // lag). Past SEALED_CHUNK samples the outbox is sealed and
@@ -342,25 +306,18 @@ impl Detector {
         }
     }
 
-    /// Lets go of the workers whose thread has ended before its queue was
-    /// closed (a panic), so that a lost worker's full queue neither blocks
-    /// the caller nor defers the other workers' messages for ever.
+    /// Lets go of the worker if its thread has ended before its queue was
+    /// closed (a panic), so that its full queue does not block the caller
+    /// nor pile the samples up in the outbox for ever.
     fn prune_lost(&mut self) {
-        if self.workers.iter().all(|w| !w.thread.is_finished()) {
-            return;
-        }
-        let (lost, live) = std::mem::take(&mut self.workers)
-            .into_iter()
-            .partition(|w| w.thread.is_finished());
-        self.workers = live;
-        for w in lost {
+        if let Some(w) = self.worker.take_if(|w| w.thread.is_finished()) {
             w.join();
             self.summary.workers_lost += 1;
         }
     }
 
-    /// Workers lost so far (their thread panicked), as found at the last
-    /// hand-over.
+    /// 1 once the worker is lost (its thread panicked), as found at the
+    /// last hand-over.
     pub fn workers_lost(&self) -> u64 {
         self.summary.workers_lost
     }
@@ -404,16 +361,11 @@ impl Detector {
             self.send();
             self.overflow = overflow;
         }
-        let mut stats = Vec::new();
-        for w in self.workers.drain(..) {
+        if let Some(w) = self.worker.take() {
             match w.join() {
-                Some(s) => stats.push(s),
+                Some(stats) => self.summary.worker = stats,
                 None => self.summary.workers_lost += 1,
             }
-        }
-        self.summary.worker = WorkerStats::combined(&stats);
-        if let Some(settler) = self.settler.take() {
-            let _ = settler.join();
         }
         self.summary.worker.candidates = self.emitted.load(Ordering::Relaxed);
         if let Some(t0) = self.started {
@@ -425,11 +377,8 @@ impl Detector {
 
 impl Drop for Detector {
     fn drop(&mut self) {
-        for w in self.workers.drain(..) {
+        if let Some(w) = self.worker.take() {
             w.join();
-        }
-        if let Some(settler) = self.settler.take() {
-            let _ = settler.join();
         }
     }
 }

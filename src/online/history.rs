@@ -1,11 +1,18 @@
-//! The worker's compact history of finalised samples, and local
-//! [`PreparedPath`] windows cut from it for the batch verification.
+//! The worker's compact history of finalised samples, the prefix of it a
+//! matching reads ([`HistoryView`]), and local [`PreparedPath`] windows cut
+//! from it for the batch verification.
 //!
 //! Storage per track grid sample: position `2 x f32`, arc length `f64`,
 //! curvature `f32`, pose index `u32` (24 bytes; about two samples per moving
 //! pose). Per signature sample: value `f32`, grid index `f64` (12 bytes).
 //! Positions are relative to the warm-up plane's centroid, so `f32` keeps
 //! well below a millimetre on paths of tens of kilometres.
+//!
+//! One history serves every matching thread: a matching reads the history
+//! as it stood when the matching fell due ([`Upto`]), so the samples taken
+//! in since (the worker takes a batch of hand-overs in before it runs their
+//! matchings) are invisible to it, and it finds what it would have found
+//! alone.
 
 use std::sync::Arc;
 
@@ -41,6 +48,44 @@ pub struct History {
     pub index: Arc<PathIndex>,
 }
 
+/// How much of the history a matching sees: the lengths of its parts when
+/// the matching fell due.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Upto {
+    /// Track samples.
+    pub grid: usize,
+    /// Signature samples.
+    pub sig: usize,
+    /// Segment boundaries.
+    pub bounds: usize,
+    /// Keyframes.
+    pub keyframes: usize,
+}
+
+/// A prefix of the [`History`]: what one matching reads.
+#[derive(Clone, Copy)]
+pub struct HistoryView<'a> {
+    /// Track positions.
+    pub xy: &'a [[f32; 2]],
+    /// Track arc length.
+    pub s: &'a [f64],
+    /// Track curvature.
+    pub curvature: &'a [f32],
+    /// Nearest pose index of each track sample.
+    pub pose: &'a [u32],
+    /// Signature values.
+    pub sig_value: &'a [f32],
+    /// Fractional track index of each signature sample.
+    pub sig_grid: &'a [f64],
+    /// Segment boundaries (signature indices).
+    pub bounds: &'a [usize],
+    /// Keyframe ids by pose index, increasing.
+    pub keyframes: &'a [(u32, u64)],
+    /// BVH of the whole history's track: a window's queries stay inside
+    /// the window, so leaves past the prefix are never reached.
+    pub index: &'a Arc<PathIndex>,
+}
+
 /// A window of the history as a prepared path, with its offsets.
 pub struct Window {
     /// The prepared path (local indices).
@@ -52,25 +97,34 @@ pub struct Window {
 }
 
 impl History {
-    /// Track position of sample `i`.
-    pub fn point(&self, i: usize) -> Vector2<f64> {
-        let p = self.xy[i];
-        Vector2::new(p[0] as f64, p[1] as f64)
+    /// The lengths of every part now.
+    pub fn upto(&self) -> Upto {
+        Upto {
+            grid: self.xy.len(),
+            sig: self.sig_value.len(),
+            bounds: self.bounds.len(),
+            keyframes: self.keyframes.len(),
+        }
     }
 
-    /// Track position at a fractional sample index (linear in between).
-    pub fn point_at(&self, g: f64) -> Vector2<f64> {
-        let last = self.xy.len().saturating_sub(1);
-        // Truncation saturates below 0 (and NaN) to 0: the clamped floor
-        // without a libm call.
-        let i = (g as usize).min(last.saturating_sub(1));
-        let f = (g - i as f64).clamp(0.0, 1.0);
-        self.point(i) * (1.0 - f) + self.point((i + 1).min(last)) * f
+    /// The history as it stood at `upto`.
+    pub fn view(&self, upto: Upto) -> HistoryView<'_> {
+        HistoryView {
+            xy: &self.xy[..upto.grid],
+            s: &self.s[..upto.grid],
+            curvature: &self.curvature[..upto.grid],
+            pose: &self.pose[..upto.grid],
+            sig_value: &self.sig_value[..upto.sig],
+            sig_grid: &self.sig_grid[..upto.sig],
+            bounds: &self.bounds[..upto.bounds],
+            keyframes: &self.keyframes[..upto.keyframes],
+            index: &self.index,
+        }
     }
 
-    /// Arc length at signature sample `j`.
-    pub fn sig_s(&self, j: usize) -> f64 {
-        Track::interp(&self.s, self.sig_grid[j])
+    /// The whole history.
+    pub fn now(&self) -> HistoryView<'_> {
+        self.view(self.upto())
     }
 
     /// Indexes the track samples appended since the last call.
@@ -92,6 +146,29 @@ impl History {
             + self.bounds.capacity() * 8
             + self.keyframes.capacity() * 16
             + self.index.bytes()
+    }
+}
+
+impl HistoryView<'_> {
+    /// Track position of sample `i`.
+    pub fn point(&self, i: usize) -> Vector2<f64> {
+        let p = self.xy[i];
+        Vector2::new(p[0] as f64, p[1] as f64)
+    }
+
+    /// Track position at a fractional sample index (linear in between).
+    pub fn point_at(&self, g: f64) -> Vector2<f64> {
+        let last = self.xy.len().saturating_sub(1);
+        // Truncation saturates below 0 (and NaN) to 0: the clamped floor
+        // without a libm call.
+        let i = (g as usize).min(last.saturating_sub(1));
+        let f = (g - i as f64).clamp(0.0, 1.0);
+        self.point(i) * (1.0 - f) + self.point((i + 1).min(last)) * f
+    }
+
+    /// Arc length at signature sample `j`.
+    pub fn sig_s(&self, j: usize) -> f64 {
+        Track::interp(self.s, self.sig_grid[j])
     }
 
     /// The keyframes of poses in `[p0, p1]`.
@@ -262,7 +339,7 @@ impl SpatialIndex {
     }
 
     /// Indexes the history's new samples.
-    pub fn update(&mut self, h: &History) {
+    pub fn update(&mut self, h: &HistoryView) {
         while self.indexed < h.xy.len() {
             let i = self.indexed;
             if i.is_multiple_of(self.every) {
@@ -281,7 +358,7 @@ impl SpatialIndex {
     /// box) serves every point.
     pub fn nearest_scaled<const N: usize>(
         &self,
-        h: &History,
+        h: &HistoryView,
         points: &[Vector2<f64>; N],
         max_radius: f64,
         max_cells: i32,
@@ -311,7 +388,9 @@ impl SpatialIndex {
                 let Some(list) = self.cells.get(&(cx, cy)) else {
                     continue;
                 };
-                for &i in list {
+                // A cell's samples increase: those past the matching's
+                // prefix end it.
+                for &i in list.iter().take_while(|&&i| (i as usize) < h.xy.len()) {
                     let i = i as usize;
                     let q = h.point(i);
                     for (k, p) in points.iter().enumerate() {
@@ -330,16 +409,23 @@ impl SpatialIndex {
         best
     }
 
-    /// Calls `f` with every indexed sample in the cells within `radius` of
-    /// `center` (a superset of the samples within `radius`).
-    pub fn samples_near(&self, center: &Vector2<f64>, radius: f64, mut f: impl FnMut(usize)) {
+    /// Calls `f` with every indexed sample of `h` in the cells within
+    /// `radius` of `center` (a superset of the samples within `radius`).
+    pub fn samples_near(
+        &self,
+        h: &HistoryView,
+        center: &Vector2<f64>,
+        radius: f64,
+        mut f: impl FnMut(usize),
+    ) {
         let (lo, hi) = (
             self.key(&(center - Vector2::new(radius, radius))),
             self.key(&(center + Vector2::new(radius, radius))),
         );
         for cx in lo.0..=hi.0 {
             for cy in lo.1..=hi.1 {
-                for &i in self.cells.get(&(cx, cy)).into_iter().flatten() {
+                let cell = self.cells.get(&(cx, cy)).into_iter().flatten();
+                for &i in cell.take_while(|&&i| (i as usize) < h.xy.len()) {
                     f(i as usize);
                 }
             }

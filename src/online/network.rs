@@ -4,7 +4,7 @@
 //! roads), its gates, and the candidate grown from it.
 
 use super::events::Source;
-use super::history::History;
+use super::history::HistoryView;
 use super::probe::Probed;
 use super::register;
 use super::search::{emitted, grow_seeded, Found, Frame, Searcher};
@@ -61,7 +61,7 @@ pub fn too_soon(last: Option<usize>, g1: usize, probe_every: usize) -> bool {
 /// otherwise the window's newest sample (for [`too_soon`]) and what it
 /// found.
 pub fn register_newest(
-    h: &History,
+    h: &HistoryView,
     searcher: &Searcher,
     frame: &Frame,
     probed: &Probed,

@@ -7,7 +7,7 @@
 
 use nalgebra::Vector2;
 
-use super::history::{History, SpatialIndex};
+use super::history::{HistoryView, SpatialIndex};
 use crate::pipeline::proximity::{near_target, radius, seed_of, Near, ProximitySeed, PROBES};
 
 /// What a probe found near the newest stretch.
@@ -68,7 +68,7 @@ const ROADS_RATIO: f64 = 0.5;
 /// for a periodic probe (`segments == false`), of the newest `window` track
 /// samples.
 pub fn probe_newest(
-    h: &History,
+    h: &HistoryView,
     spatial: &SpatialIndex,
     segments: bool,
     window: usize,
@@ -98,7 +98,7 @@ const CONSISTENT_CELLS: i32 = 64;
 /// least the window's own length back along the path) within the
 /// consistent map's radius, else (`drift > 0`) the drifting map's.
 pub fn probe(
-    h: &History,
+    h: &HistoryView,
     spatial: &SpatialIndex,
     g0: usize,
     g1: usize,

@@ -24,7 +24,7 @@ use std::collections::HashMap;
 
 use nalgebra::Vector2;
 
-use super::history::{CellHash, History, SpatialIndex};
+use super::history::{CellHash, HistoryView, SpatialIndex};
 use super::probe;
 use crate::geometry::Similarity2;
 use crate::pipeline::proximity::radius;
@@ -156,7 +156,7 @@ fn floor_i32(x: f64) -> i32 {
 }
 
 /// Direction of the track at sample `g` (central difference).
-fn heading(h: &History, g: usize) -> f64 {
+fn heading(h: &HistoryView, g: usize) -> f64 {
     let last = h.xy.len() - 1;
     let d = h.point((g + 1).min(last)) - h.point(g.saturating_sub(1));
     d.y.atan2(d.x)
@@ -251,7 +251,7 @@ impl Window {
 /// The best placement of track samples `[g0, g1]` on the map within
 /// `bounds`, or `None` when no map sample is in reach.
 pub fn register(
-    h: &History,
+    h: &HistoryView,
     spatial: &SpatialIndex,
     g0: usize,
     g1: usize,
@@ -299,7 +299,7 @@ pub fn register(
     // Each sample's own reach: the drift grows with the path between.
     let mut samples = Vec::new();
     let mut reach2 = Vec::new();
-    spatial.samples_near(&centroid, reach, |t| {
+    spatial.samples_near(h, &centroid, reach, |t| {
         let r = bounds
             .radius
             .min(radius(length, bounds.rate, h.s[g0] - h.s[t]));
@@ -441,6 +441,7 @@ pub fn register(
 
 #[cfg(test)]
 mod tests {
+    use super::super::history::History;
     use super::super::network::REGISTER_MARGIN;
     use super::*;
 
@@ -491,9 +492,10 @@ mod tests {
             h.xy.push([p.x as f32, p.y as f32]);
             h.s.push(s);
             h.curvature.push(kappa as f32);
+            h.pose.push(i as u32);
         }
         let mut spatial = SpatialIndex::new(64.0 * STEP, 4);
-        spatial.update(&h);
+        spatial.update(&h.now());
         (h, spatial)
     }
 
@@ -543,7 +545,7 @@ mod tests {
         (h, spatial, [g0, g1])
     }
 
-    fn bounds(h: &History, [g0, g1]: [usize; 2]) -> Bounds {
+    fn bounds(h: &HistoryView, [g0, g1]: [usize; 2]) -> Bounds {
         let length = h.s[g1] - h.s[g0];
         Bounds {
             radius: 0.25 * length + 40.0,
@@ -556,7 +558,7 @@ mod tests {
     }
 
     /// The registration of `range` within [`bounds`], default prior.
-    fn place(h: &History, spatial: &SpatialIndex, range: [usize; 2]) -> Option<Registration> {
+    fn place(h: &HistoryView, spatial: &SpatialIndex, range: [usize; 2]) -> Option<Registration> {
         let prior = DriftPrior::default();
         register(h, spatial, range[0], range[1], &bounds(h, range), &prior)
     }
@@ -573,6 +575,7 @@ mod tests {
     fn the_road_just_driven_is_no_place_for_the_window() {
         let points = road(&[(0.0, 0.0), (2000.0, 0.0)]);
         let (h, spatial) = history(&points);
+        let h = h.now();
         let g1 = h.xy.len() - 1;
         let g0 = g1 - (160.0 / STEP) as usize;
         // A reach of three window lengths, as from an earlier pass far back
@@ -613,6 +616,7 @@ mod tests {
         // matches the window beyond one of its legs.
         let (angle, shift) = (4f64.to_radians(), Vector2::new(25.0, -8.0));
         let (h, spatial, range) = drive(&turn_at_junction(), angle, shift);
+        let h = h.now();
         let reg = place(&h, &spatial, range).expect("a placement");
         let band = BAND_FRACTION * (h.s[range[1]] - h.s[range[0]]);
         // Every window point back on the network, and a point by the
@@ -636,6 +640,7 @@ mod tests {
     fn a_look_alike_junction_in_reach_is_a_rival() {
         let (angle, shift) = (2f64.to_radians(), Vector2::new(15.0, -4.0));
         let (h, spatial, range) = drive_on(&[0.0, 40.0], &turn_at_junction(), angle, shift);
+        let h = h.now();
         let reg = place(&h, &spatial, range).expect("a placement");
         assert!(reg.support > 0.9, "{reg:?}");
         assert!(reg.margin < REGISTER_MARGIN, "{reg:?}");
@@ -645,6 +650,7 @@ mod tests {
     fn a_drifted_straight_slides_along_its_road_and_has_no_margin() {
         let later = road(&[(-120.0, 0.0), (-20.0, 0.0)]);
         let (h, spatial, range) = drive(&later, 2f64.to_radians(), Vector2::new(30.0, 6.0));
+        let h = h.now();
         let reg = place(&h, &spatial, range).expect("a placement");
         // On the road, but any slide along it fits as well: the rival is
         // the same road, slid along it by a quarter of the window or more.
@@ -688,6 +694,7 @@ mod tests {
     fn no_map_in_reach_gives_no_placement() {
         let later = road(&[(0.0, 60.0), (0.0, 10.0), (60.0, 10.0)]);
         let (h, spatial, range) = drive(&later, 0.0, Vector2::new(900.0, 900.0));
+        let h = h.now();
         assert!(place(&h, &spatial, range).is_none());
     }
 }

@@ -8,9 +8,9 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use super::correlator::{BlockCorrelator, Piece, SharedPieces};
+use super::correlator::{BlockCorrelator, LazyPiece, Piece};
 use super::events::Source;
-use super::history::{History, SpatialIndex, Window};
+use super::history::{History, HistoryView, SpatialIndex, Window};
 use super::scan;
 use super::{Exclusion, OnlineConfig};
 use nalgebra::Vector2;
@@ -63,7 +63,7 @@ pub struct Frame {
 impl Frame {
     /// The history's track samples `[g0, g1]` (clamped) as a prepared
     /// path in this frame.
-    pub fn window(&self, h: &History, g0: usize, g1: usize, dk: f64) -> Option<Window> {
+    pub fn window(&self, h: &HistoryView, g0: usize, g1: usize, dk: f64) -> Option<Window> {
         h.window(
             g0,
             g1,
@@ -80,13 +80,13 @@ impl Frame {
 /// sample `v` of the target window `tw` lie more than `length` apart along
 /// the path: the query's own neighbourhood is no revisit.
 fn apart<'a>(
-    h: &'a History,
+    h: &'a HistoryView<'a>,
     qw: &'a Window,
     tw: &'a Window,
     length: f64,
 ) -> impl Fn(usize, f64) -> bool + 'a {
     move |g, v| {
-        let st = crate::track::Track::interp(&h.s, v + tw.grid0 as f64);
+        let st = crate::track::Track::interp(h.s, v + tw.grid0 as f64);
         (h.s[g + qw.grid0] - st).abs() > length
     }
 }
@@ -96,7 +96,7 @@ fn apart<'a>(
 /// both windows are one map) and scores the first that verifies.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn grow_seeded(
-    h: &History,
+    h: &HistoryView,
     frame: &Frame,
     config: &OnlineConfig,
     query: [usize; 2],
@@ -156,10 +156,9 @@ impl crate::pipeline::rank::Ranked for Found {
 pub struct Searcher {
     /// Block spectra and prefix sums of the history signature.
     pub correlator: BlockCorrelator,
-    /// Cached raw correlations of the newest pieces (oldest first).
-    pub pieces: Vec<Arc<Piece>>,
-    /// With several workers, the pieces they share.
-    pub shared: Option<Arc<SharedPieces>>,
+    /// Raw correlations of the newest pieces (oldest first), each computed
+    /// when first needed.
+    pub pieces: Vec<Arc<LazyPiece>>,
     /// Decimated positions for the proximity probe.
     pub spatial: Option<SpatialIndex>,
 }
@@ -170,7 +169,6 @@ impl Searcher {
         Searcher {
             correlator: BlockCorrelator::new(config.block_len),
             pieces: Vec::new(),
-            shared: None,
             spatial: None,
         }
     }
@@ -181,35 +179,41 @@ impl Searcher {
         let spatial = self
             .spatial
             .get_or_insert_with(|| SpatialIndex::new(64.0 * frame.step, 4));
-        spatial.update(h);
+        spatial.update(&h.now());
     }
 
-    /// Caches the piece ending at boundary number `k` (`k >= 1`), or takes
-    /// it from another worker.
+    /// Keeps the piece ending at boundary number `k` (`k >= 1`), to be
+    /// computed when first needed.
     pub fn add_piece(&mut self, h: &History, k: usize, keep: usize) {
         let (b0, b1) = (h.bounds[k - 1], h.bounds[k]);
-        let correlator = &mut self.correlator;
-        let mut compute = || correlator.piece(&h.sig_value, b0, b1 - b0);
-        let piece = match &self.shared {
-            Some(shared) => shared.piece(k, compute),
-            None => Arc::new(compute()),
-        };
-        self.pieces.push(piece);
+        let piece = LazyPiece::new(b0, b1 - b0, h.sig_value.len());
+        self.pieces.push(Arc::new(piece));
         if self.pieces.len() > keep {
             self.pieces.remove(0);
         }
     }
 
-    /// Shape candidates of the queries ending at the newest boundary.
-    pub fn shape_candidates(&self, h: &History, config: &OnlineConfig) -> Vec<Candidate> {
+    /// Shape candidates of the queries ending at the newest boundary of
+    /// `h`, whose newest pieces are `newest` (oldest first).
+    pub fn shape_candidates(
+        &self,
+        h: &HistoryView,
+        newest: &[Arc<LazyPiece>],
+        config: &OnlineConfig,
+    ) -> Vec<Candidate> {
         let qc = &config.pipeline.query;
-        let a = &h.sig_value;
+        let a = h.sig_value;
         let n_bounds = h.bounds.len();
-        if n_bounds < 2 || self.pieces.is_empty() {
+        if n_bounds < 2 || newest.is_empty() {
             return Vec::new();
         }
         let q1 = h.bounds[n_bounds - 1];
-        let hist = self.correlator.prefix.len() - 1;
+        // The prefix sums as far as the matching's history goes.
+        let hist = a.len();
+        let (prefix, prefix_sq) = (
+            &self.correlator.prefix[..=hist],
+            &self.correlator.prefix_sq[..=hist],
+        );
         let total_var = {
             let (s, sq) = self.correlator.window(0, hist);
             (sq / hist as f64 - (s / hist as f64).powi(2)).max(0.0)
@@ -219,10 +223,10 @@ impl Searcher {
         // leaves room for them outside the query's own neighbourhood.
         let mut queries = Vec::new();
         let mut pieces = Vec::new();
-        let max_n = qc.max_segments.min(self.pieces.len());
+        let max_n = qc.max_segments.min(newest.len());
         for n in 1..=max_n {
-            let piece: &Piece = &self.pieces[self.pieces.len() - n];
-            let q0 = piece.start;
+            let lazy = &newest[newest.len() - n];
+            let q0 = lazy.start;
             let len = q1 - q0 + 1;
             let margin = match config.exclusion {
                 Exclusion::Turning(k) => (k / config.pipeline.signature.dk).round() as usize,
@@ -253,12 +257,13 @@ impl Searcher {
                     last: a[q1] as f64,
                 }),
             });
+            let piece: &Piece = lazy.get(&self.correlator, a);
             pieces.push(piece);
         }
         let history = scan::History {
             values: a,
-            prefix: &self.correlator.prefix,
-            prefix_sq: &self.correlator.prefix_sq,
+            prefix,
+            prefix_sq,
             flat,
         };
         let found = scan::scan(&pieces, &queries, &history, qc.min_zncc);
@@ -315,7 +320,7 @@ impl Searcher {
 /// Verifies, scores and converts the candidates of one query: each shape
 /// candidate, then the probe's seed.
 pub fn verify_all(
-    h: &History,
+    h: &HistoryView,
     frame: &Frame,
     shape: &[Candidate],
     seed: Option<&ProximitySeed>,
@@ -332,7 +337,7 @@ pub fn verify_all(
 
 /// One shape candidate verified and scored, if it may pass the cut.
 fn verify_shape(
-    h: &History,
+    h: &HistoryView,
     frame: &Frame,
     cand: &Candidate,
     config: &OnlineConfig,
@@ -423,7 +428,7 @@ fn verify_shape(
 
 /// The proximity probe's seed grown and scored, if it may pass the cut.
 fn grow_seed(
-    h: &History,
+    h: &HistoryView,
     frame: &Frame,
     seed: &ProximitySeed,
     config: &OnlineConfig,
@@ -548,7 +553,7 @@ fn prior_may_pass(
 /// itself (`verify::seed_similarity`, as `verify` on the windows), through `gate`: true
 /// when the gate passes or no similarity is found (verification decides).
 fn pre_gate(
-    h: &History,
+    h: &HistoryView,
     cand: &Candidate,
     pc: &crate::pipeline::Config,
     gate: impl Fn(&Similarity2, &[(Vector2<f64>, Vector2<f64>)]) -> bool,
@@ -574,7 +579,7 @@ fn pre_gate(
 /// with the drift prior like the batch `loops`.
 #[allow(non_snake_case)]
 fn finish(
-    h: &History,
+    h: &HistoryView,
     tw: &Window,
     qw: &Window,
     v: &Verified,
@@ -615,7 +620,7 @@ fn finish(
         d.sort_by(f64::total_cmp);
         d.get(d.len() / 2).copied().unwrap_or(0.0)
     };
-    let s_of = |w: &Window, g: f64| crate::track::Track::interp(&h.s, g + w.grid0 as f64);
+    let s_of = |w: &Window, g: f64| crate::track::Track::interp(h.s, g + w.grid0 as f64);
     let between = (s_of(qw, o.query[0] as f64) - s_of(tw, o.target[1])).abs();
     let length = o.target_length.max(o.query_length);
     let angle = a_T_b.angle.rem_euclid(std::f64::consts::TAU);
