@@ -4,7 +4,8 @@
 //! `cargo run --release --example online_long_run -- [POSES] [EVERY]`
 //! (default 10 000 000 poses; `EVERY` = k keeps every k-th pose of the
 //! drive, so each pose spans k times the road, as a 1 Hz GPS does against
-//! 10 Hz odometry; default 1). Prints, per million poses: push p50/p99/max
+//! 10 Hz odometry; default 1). `WORKERS=n` sets `OnlineConfig::workers`
+//! (matching threads over the one history). Prints, per million poses: push p50/p99/max
 //! (ns, measured around each push), the process's resident memory, and at
 //! the end the detector's own count of history bytes per pose.
 
@@ -36,7 +37,11 @@ fn main() {
         .max(1);
     let chunk = 1_000_000.min(total);
     let rss0 = rss_bytes();
-    let mut d = Detector::new(OnlineConfig::default(), Overflow::MergeLatest);
+    let config = OnlineConfig {
+        workers: std::env::var("WORKERS").map_or(1, |v| v.parse().expect("WORKERS")),
+        ..OnlineConfig::default()
+    };
+    let mut d = Detector::new(config, Overflow::MergeLatest);
     let mut lat = Vec::with_capacity(chunk);
     let mut candidates = 0usize;
     let t0 = Instant::now();
@@ -73,7 +78,7 @@ fn main() {
         t0.elapsed().as_secs_f64() - push_s
     );
     println!(
-        "history: {} track samples, {} signature samples, {} bytes = {:.1} bytes/pose; worker: {} messages, {} segments, {} matched, {} skipped, {} probes; {} deferred sends; {candidates} candidates",
+        "history: {} track samples, {} signature samples, {} bytes = {:.1} bytes/pose; worker: {} messages, {} segments, {} matched, {} skipped, {} probes, {} batches shared out; {} deferred sends; {candidates} candidates",
         s.worker.grid_samples,
         s.worker.sig_samples,
         s.worker.history_bytes,
@@ -83,6 +88,7 @@ fn main() {
         s.worker.matched,
         s.worker.skipped,
         s.worker.probes,
+        s.worker.parallel_batches,
         s.deferred
     );
 }

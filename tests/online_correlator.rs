@@ -181,3 +181,28 @@ fn tiled_scan_finds_the_peaks_of_the_direct_zncc() {
     }
     assert!(checked > 20, "{checked} peaks checked");
 }
+
+/// A segment's piece is computed by the first matching that needs it, which
+/// may run after later hand-overs finished more blocks of the history: it
+/// must equal, bit for bit, the piece computed when its boundary came (the
+/// candidates are then the same with any number of matching threads).
+#[test]
+fn a_piece_computed_after_more_blocks_finished_equals_the_piece_at_its_boundary() {
+    let (a, bounds) = signature("00");
+    for block in [64, 100, 256] {
+        let mut c = BlockCorrelator::new(block);
+        // The history when boundary k came, with an open tail block.
+        let k = bounds.len() / 2;
+        let at_boundary = bounds[k] + block / 2;
+        c.update(&a[..at_boundary]);
+        let (start, len) = (bounds[k - 1], bounds[k] - bounds[k - 1]);
+        let then = c.piece(&a[..at_boundary], start, len);
+        // Later hand-overs: the open block finished, and more after it.
+        c.update(&a);
+        let later = c.piece(&a[..at_boundary], start, len);
+        assert_eq!(then.forward.len(), at_boundary);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&then.forward), bits(&later.forward), "block {block}");
+        assert_eq!(bits(&then.reversed), bits(&later.reversed), "block {block}");
+    }
+}

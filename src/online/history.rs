@@ -442,3 +442,49 @@ impl SpatialIndex {
         self.cells.values().map(|v| v.capacity() * 4 + 48).sum()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A matching reads the history as it stood when it fell due: the
+    /// spatial grid, which indexes every sample taken in since, must not
+    /// hand it a later one (its slices end there: indexing one panicked).
+    #[test]
+    fn a_view_sees_no_sample_taken_in_after_it() {
+        let mut h = History::default();
+        // Two passes over the same line: the later one lies on the
+        // earlier.
+        for i in 0..400 {
+            let x = (i % 200) as f32;
+            h.xy.push([x, 0.0]);
+            h.s.push(i as f64);
+            h.curvature.push(0.0);
+            h.pose.push(i);
+        }
+        let mut grid = SpatialIndex::new(8.0, 1);
+        grid.update(&h.now());
+        let upto = Upto {
+            grid: 200,
+            ..h.upto()
+        };
+        let view = h.view(upto);
+        let mut seen = Vec::new();
+        grid.samples_near(&view, &Vector2::new(50.0, 0.0), 10.0, |i| seen.push(i));
+        assert!(!seen.is_empty());
+        assert!(seen.iter().all(|&i| i < 200), "{seen:?}");
+        let [nearest] = grid.nearest_scaled(
+            &view,
+            &[Vector2::new(150.0, 0.0)],
+            10.0,
+            4,
+            |_, _| 1.0,
+            |_, _| true,
+        );
+        assert_eq!(nearest.map(|n| n.1), Some(150));
+        // The whole history sees the second pass.
+        let mut all = Vec::new();
+        grid.samples_near(&h.now(), &Vector2::new(50.0, 0.0), 10.0, |i| all.push(i));
+        assert!(all.iter().any(|&i| i >= 200));
+    }
+}

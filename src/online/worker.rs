@@ -458,12 +458,6 @@ impl WorkerState {
         (matched, start.elapsed().as_secs_f64())
     }
 
-    /// Takes one message in and runs its matchings on this thread.
-    pub fn take_and_match(&mut self, m: &Message) -> Vec<Matched> {
-        let due = self.take(m);
-        self.run(&due, 1)
-    }
-
     /// Final figures.
     pub fn finish_stats(&mut self) -> WorkerStats {
         let h = &self.history;
