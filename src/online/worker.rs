@@ -357,17 +357,21 @@ impl WorkerState {
             self.stats.parallel_batches += 1;
             // Each thread takes the next matching not yet taken: the
             // matchings' costs differ by two orders of magnitude (a
-            // periodic probe against a network registration).
+            // periodic probe against a network registration). The costly
+            // kinds go first (a segment's queries, then the drifting
+            // probe's), so that the batch does not end waiting on one.
+            let mut order: Vec<usize> = (0..due.len()).collect();
+            order.sort_by_key(|&i| (!due[i].shape, !due[i].drifting));
             let next = AtomicUsize::new(0);
             let this = &*self;
             let share = || {
                 let mut mine = Vec::new();
                 loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(d) = due.get(i) else {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&i) = order.get(k) else {
                         return mine;
                     };
-                    mine.push((i, this.matching(d)));
+                    mine.push((i, this.matching(&due[i])));
                 }
             };
             let mut all = std::thread::scope(|scope| {
