@@ -667,4 +667,43 @@ mod tests {
             assert_eq!(same, b.len(), "{workers} threads");
         }
     }
+
+    /// Live use: the caller, which never waits, notices the loss at its
+    /// next hand-over and lets the worker go, rather than keep samples for
+    /// a queue no one empties (they would pile up in its outbox for ever).
+    #[test]
+    fn a_live_caller_lets_a_lost_worker_go_and_hands_over_no_more() {
+        use super::super::{Detector, PoseInput};
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/00.txt");
+        let points = crate::io::read_trajectory(path.as_ref(), crate::io::Format::Kitti)
+            .expect(path)
+            .positions();
+        let (first, rest) = points.split_at(1500);
+        for workers in [1, 2] {
+            // Its first matching: within the first part of the drive.
+            FAIL_AT.set(Some(0));
+            let config = OnlineConfig {
+                workers,
+                ..Default::default()
+            };
+            let mut det = Detector::new(config, Overflow::MergeLatest);
+            FAIL_AT.set(None);
+            for p in first {
+                det.push(&PoseInput::at(*p));
+            }
+            // Then at a fast odometry's pace (10 poses in 3 ms, about 0.9 s
+            // in all): the worker meets its end early in it (its panic's
+            // backtrace, the first in the process, takes a few hundred
+            // milliseconds to print).
+            for chunk in rest.chunks(10) {
+                std::thread::sleep(std::time::Duration::from_millis(3));
+                for p in chunk {
+                    det.push(&PoseInput::at(*p));
+                }
+            }
+            assert_eq!(det.workers_lost(), 1, "{workers} threads");
+            let (_, summary) = det.finish();
+            assert_eq!(summary.workers_lost, 1);
+        }
+    }
 }
