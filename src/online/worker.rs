@@ -127,8 +127,6 @@ pub fn spawn(
 /// newest sample and candidates). Ids are given when settled.
 #[derive(Debug)]
 pub struct Matched {
-    /// The matching's number in the stream.
-    pub matching: u64,
     /// The searches' candidates.
     pub found: Vec<CandidateEvent>,
     /// The registration's, if due.
@@ -197,10 +195,6 @@ pub struct WorkerState {
     /// Statistics.
     pub stats: WorkerStats,
     config: OnlineConfig,
-    /// Matchings so far.
-    matchings: u64,
-    /// Periodic probes so far.
-    periodic: u64,
     /// A test's injected panic at this matching ([`FAIL_AT`]).
     #[cfg(test)]
     fail_at: Option<u64>,
@@ -217,7 +211,8 @@ thread_local! {
 /// A matching that fell due, with what it may read: the history up to
 /// `upto` and the pieces of the newest segments then.
 pub struct Due {
-    /// Its number in the stream.
+    /// Its number in the stream (a test's injected failure names it).
+    #[cfg(test)]
     matching: u64,
     /// The newest segment's queries (else the periodic probe alone).
     shape: bool,
@@ -239,8 +234,6 @@ impl WorkerState {
             searcher: Searcher::new(&config),
             stats: WorkerStats::default(),
             config,
-            matchings: 0,
-            periodic: 0,
             #[cfg(test)]
             fail_at: FAIL_AT.get(),
         }
@@ -321,19 +314,22 @@ impl WorkerState {
     /// The next matching, over the history as it stands: the newest
     /// segment's queries (`shape`) or the periodic probe.
     fn fall_due(&mut self, frame: &Frame, at_pose: usize, shape: bool) -> Due {
-        let matching = self.matchings;
-        self.matchings += 1;
-        let drifting = shape || {
-            self.periodic += 1;
-            // A periodic probe covers the newest two probe periods, so
-            // every other one covers each sample once.
-            self.periodic.is_multiple_of(2)
+        #[cfg(test)]
+        let matching = self.stats.matched + self.stats.probes;
+        let drifting = match shape {
+            true => {
+                self.stats.matched += 1;
+                true
+            }
+            false => {
+                self.stats.probes += 1;
+                // A periodic probe covers the newest two probe periods, so
+                // every other one covers each sample once.
+                self.stats.probes.is_multiple_of(2)
+            }
         };
-        match shape {
-            true => self.stats.matched += 1,
-            false => self.stats.probes += 1,
-        }
         Due {
+            #[cfg(test)]
             matching,
             shape,
             drifting,
@@ -347,10 +343,10 @@ impl WorkerState {
         }
     }
 
-    /// Runs `due` matchings on up to `threads` threads (each reads the
-    /// history as its matching fell due), in stream order.
-    pub fn run(&mut self, due: &[Due], threads: usize) -> Vec<Matched> {
-        let threads = threads.clamp(1, due.len().max(1));
+    /// Runs `due` matchings on up to [`OnlineConfig::workers`] threads
+    /// (each reads the history as its matching fell due), in stream order.
+    pub fn run(&mut self, due: &[Due]) -> Vec<Matched> {
+        let threads = self.config.workers.clamp(1, due.len().max(1));
         let timed: Vec<(Matched, f64)> = if threads == 1 {
             due.iter().map(|d| self.matching(d)).collect()
         } else {
@@ -455,7 +451,6 @@ impl WorkerState {
             }
         };
         let matched = Matched {
-            matching: due.matching,
             found: found.into_iter().map(event).collect(),
             registered: registered.map(|(g1, r)| (g1, r.into_iter().map(event).collect())),
         };
@@ -538,7 +533,7 @@ fn run(
                 _ => rx.try_recv().ok(),
             };
         }
-        for matched in state.run(&due, threads) {
+        for matched in state.run(&due) {
             // The caller may have dropped its receiver: keep working.
             for e in settle.settle(matched) {
                 let _ = tx.send(e);
@@ -583,7 +578,6 @@ mod tests {
         // Registered: two searches' candidates and two places, best three
         // kept, best first.
         let first = settle.settle(Matched {
-            matching: 0,
             found: vec![event(0.2, Source::Proximity), event(0.1, Source::Proximity)],
             registered: registered(1000, &[0.3, 0.05]),
         });
@@ -591,19 +585,25 @@ mod tests {
         // A few samples later: the registration is dropped, the searches'
         // candidate kept.
         let soon = settle.settle(Matched {
-            matching: 1,
             found: vec![event(0.4, Source::Shape)],
             registered: registered(1000 + every - 1, &[0.9]),
         });
         assert_eq!(scores(&soon), [(4, 0.4)]);
         // A period after the last one that counted: kept.
         let later = settle.settle(Matched {
-            matching: 2,
             found: Vec::new(),
             registered: registered(1000 + every, &[0.6]),
         });
         assert_eq!(scores(&later), [(5, 0.6)]);
         assert_eq!(emitted.load(Ordering::Relaxed), 5);
+    }
+
+    /// KITTI 00's ground truth positions.
+    fn kitti_00() -> Vec<nalgebra::Vector3<f64>> {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/00.txt");
+        crate::io::read_trajectory(path.as_ref(), crate::io::Format::Kitti)
+            .expect(path)
+            .positions()
     }
 
     /// KITTI 00's ground truth replayed with `workers` matching threads,
@@ -614,10 +614,7 @@ mod tests {
         fail: Option<u64>,
     ) -> (Vec<CandidateEvent>, super::super::Summary, u64) {
         use super::super::{Detector, PoseInput};
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/00.txt");
-        let points = crate::io::read_trajectory(path.as_ref(), crate::io::Format::Kitti)
-            .expect(path)
-            .positions();
+        let points = kitti_00();
         FAIL_AT.set(fail);
         let config = OnlineConfig {
             workers,
@@ -674,10 +671,7 @@ mod tests {
     #[test]
     fn a_live_caller_lets_a_lost_worker_go_and_hands_over_no_more() {
         use super::super::{Detector, PoseInput};
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/00.txt");
-        let points = crate::io::read_trajectory(path.as_ref(), crate::io::Format::Kitti)
-            .expect(path)
-            .positions();
+        let points = kitti_00();
         let (first, rest) = points.split_at(1500);
         for workers in [1, 2] {
             // Its first matching: within the first part of the drive.
