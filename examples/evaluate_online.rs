@@ -176,7 +176,7 @@ fn main() {
         if std::env::var("SCORES").is_ok() {
             for (c, ok) in cands.iter().zip(&correct) {
                 eprintln!(
-                    "score {seq} {} {:.4} {} {} at {} q {:?} m {:?} d {:.1}",
+                    "score {seq} {} {:.4} {} {} at {} q {:?} m {:?} d {:.1} f {:.4} {:.4} {:.4} {:.4} {:.2} {:.4} {:.4}",
                     ok,
                     c.hypothesis.score,
                     c.source.name(),
@@ -184,7 +184,14 @@ fn main() {
                     c.at_pose,
                     c.hypothesis.a_range,
                     c.hypothesis.b_range,
-                    median_gt_distance(c, &g)
+                    median_gt_distance(c, &g),
+                    c.hypothesis.scale,
+                    c.hypothesis.rotation_angle(),
+                    c.hypothesis.rmse,
+                    c.hypothesis.turning,
+                    c.hypothesis.length,
+                    c.hypothesis.length_ratio,
+                    c.hypothesis.zncc
                 );
             }
         }

@@ -178,3 +178,16 @@ fn a_placement_and_its_rival_count_against_top_k() {
 fn the_road_just_driven_does_not_take_the_registration() {
     placed_on_the_network("tests/data/02.txt", 3, [4185, 4274], 4300);
 }
+
+/// KITTI 00's last revisit (frames 4427-4540) under seed 4: the car joins
+/// the road it started on by a 60 degree turn and drives 90 m of its
+/// straight until the file ends. The map begins on that straight, so the
+/// turn lies beyond the map's first pose and counted off the map: the
+/// placement on the start road (support 0.94) lost to straights elsewhere
+/// that lay every point on a road (0.831 and 0.828 against 0.821). A
+/// window point beyond the map's open start now counts half
+/// (`register::OPEN_CREDIT`).
+#[test]
+fn a_return_to_the_first_road_is_not_held_against_the_map_before_it() {
+    placed_on_the_network("tests/data/00.txt", 4, [4427, 4540], 4541);
+}

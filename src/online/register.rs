@@ -175,11 +175,62 @@ fn axial(mut x: f64) -> f64 {
     x
 }
 
+/// Share of a window point's weight counted for a placement that lays it
+/// beyond the map's open start ([`OpenStart`]): the map does not know
+/// whether a road lies there.
+const OPEN_CREDIT: f64 = 0.5;
+
 /// The window: points, turning weights, centroid.
 struct Window {
     points: Vec<(Vector2<f64>, f64)>,
     weights: Vec<f64>,
     total: f64,
+    /// The map's open end at the path's first sample.
+    start: OpenStart,
+}
+
+/// The map begins where the path began: beyond its first sample nothing is
+/// known, so a window point laid there is neither on nor off the map. A
+/// revisit of the first road (the commonest loop: back where it started)
+/// enters it from roads the map has never seen, and without this its
+/// entry counted against the true place and for any other junction
+/// (KITTI 00's last revisit under strong drift).
+struct OpenStart {
+    /// The path's first sample.
+    origin: Vector2<f64>,
+    /// Its direction of travel (unit).
+    ahead: Vector2<f64>,
+    /// Track samples up to this one lie at the open end (a quarter of the
+    /// window's length of road from the first).
+    zone: u32,
+    /// A point lies beyond the end when less than this far ahead of it
+    /// (a band).
+    band: f64,
+}
+
+impl OpenStart {
+    /// The open end of the map `h` for a window whose tolerance is `band`.
+    fn of(h: &HistoryView, band: f64) -> Self {
+        let reach = h.s[0] + RIVAL_BANDS as f64 * band;
+        let zone = h.s.partition_point(|&s| s <= reach).saturating_sub(1);
+        let origin = h.point(0);
+        let d = h.point(zone.max(1).min(h.xy.len() - 1)) - origin;
+        let ahead = match d.norm() > 0.0 {
+            true => d / d.norm(),
+            false => Vector2::zeros(),
+        };
+        OpenStart {
+            origin,
+            ahead,
+            zone: zone as u32,
+            band,
+        }
+    }
+
+    /// Whether a point laid at `q` lies beyond the map's first sample.
+    fn beyond(&self, q: &Vector2<f64>) -> bool {
+        (q - self.origin).dot(&self.ahead) < self.band
+    }
 }
 
 /// The window points a placement lays on the map.
@@ -194,21 +245,89 @@ struct OnMap {
 }
 
 impl Window {
+    /// [`POINTS`] points of track samples `[g0, g1]` of `h`, weighted by
+    /// turning (the turns are what pin a window along its roads), and
+    /// their centroid; `band` is the placement's tolerance.
+    fn new(h: &HistoryView, g0: usize, g1: usize, band: f64) -> (Self, Vector2<f64>) {
+        let length = h.s[g1] - h.s[g0];
+        let samples: Vec<usize> = (0..POINTS)
+            .map(|k| g0 + k * (g1 - g0) / (POINTS - 1))
+            .collect();
+        let points: Vec<(Vector2<f64>, f64)> = samples
+            .iter()
+            .map(|&g| (h.point(g), heading(h, g)))
+            .collect();
+        let kappa: Vec<f64> = samples
+            .iter()
+            .map(|&g| (h.curvature[g] as f64).abs())
+            .collect();
+        // Relative to the window's mean curvature, but at least a radian of
+        // turning over the window: the noise of a straight weighs nothing.
+        let mean_k = (kappa.iter().sum::<f64>() / POINTS as f64).max(1.0 / length);
+        let weights: Vec<f64> = kappa.iter().map(|k| 1.0 + k / mean_k).collect();
+        let centroid = points.iter().map(|p| p.0).sum::<Vector2<f64>>() / POINTS as f64;
+        let window = Window {
+            total: weights.iter().sum(),
+            points,
+            weights,
+            start: OpenStart::of(h, band),
+        };
+        (window, centroid)
+    }
+
     /// The turning-weighted share of points within the map's cell of a
     /// sample under `sim`, and the pairs `(map, window)` that are.
+    ///
+    /// Points of the window's first or last run off the map that carry on
+    /// beyond the map's open start ([`OpenStart`]) count [`OPEN_CREDIT`]
+    /// of their weight: unknown ground, neither for the place nor against.
     fn support(&self, map: &Map, sim: &Similarity2) -> OnMap {
         let mut on = OnMap::default();
         let to_map = sim.applier();
         let mut block = Block::default();
-        for ((p, _), wi) in self.points.iter().zip(&self.weights) {
+        // The track sample under each window point on the map.
+        let mut under = [None; POINTS];
+        for (k, ((p, _), wi)) in self.points.iter().zip(&self.weights).enumerate() {
             if let Some(j) = map.nearest(&to_map(p), &mut block) {
                 on.support += wi;
                 on.pairs.push((map.samples[j].0, *p));
                 on.weights.push(*wi);
+                under[k] = Some(map.samples[j].2);
             }
         }
-        on.support /= self.total;
+        let open = self.open_weight(&under, &to_map);
+        on.support = (on.support + OPEN_CREDIT * open) / self.total;
         on
+    }
+
+    /// The weight of the window points off the map that carry on from its
+    /// open start: a leading or trailing run of points off the map next to
+    /// a point on the start's road, each laid beyond the first sample.
+    fn open_weight(
+        &self,
+        under: &[Option<u32>; POINTS],
+        to_map: &impl Fn(&Vector2<f64>) -> Vector2<f64>,
+    ) -> f64 {
+        let (Some(first), Some(last)) = (
+            under.iter().position(Option::is_some),
+            under.iter().rposition(Option::is_some),
+        ) else {
+            return 0.0;
+        };
+        let at_start = |k: usize| under[k].is_some_and(|t| t <= self.start.zone);
+        let run = |ks: std::ops::Range<usize>| -> f64 {
+            ks.filter(|&k| self.start.beyond(&to_map(&self.points[k].0)))
+                .map(|k| self.weights[k])
+                .sum()
+        };
+        let mut open = 0.0;
+        if at_start(first) {
+            open += run(0..first);
+        }
+        if at_start(last) {
+            open += run(last + 1..POINTS);
+        }
+        open
     }
 
     /// `rounds` rigid refits of `sim`, which lays `on` on the map (a free
@@ -263,29 +382,7 @@ pub fn register(
         return None;
     }
     let band = BAND_FRACTION * length;
-    // Window points, weighted by turning: the turns are what pin a window
-    // along its roads.
-    let samples: Vec<usize> = (0..POINTS)
-        .map(|k| g0 + k * (g1 - g0) / (POINTS - 1))
-        .collect();
-    let points: Vec<(Vector2<f64>, f64)> = samples
-        .iter()
-        .map(|&g| (h.point(g), heading(h, g)))
-        .collect();
-    let kappa: Vec<f64> = samples
-        .iter()
-        .map(|&g| (h.curvature[g] as f64).abs())
-        .collect();
-    // Relative to the window's mean curvature, but at least a radian of
-    // turning over the window: the noise of a straight weighs nothing.
-    let mean_k = (kappa.iter().sum::<f64>() / POINTS as f64).max(1.0 / length);
-    let weights: Vec<f64> = kappa.iter().map(|k| 1.0 + k / mean_k).collect();
-    let centroid = points.iter().map(|p| p.0).sum::<Vector2<f64>>() / POINTS as f64;
-    let window = Window {
-        total: weights.iter().sum(),
-        points,
-        weights,
-    };
+    let (window, centroid) = Window::new(h, g0, g1, band);
     let half = window
         .points
         .iter()
@@ -594,6 +691,69 @@ mod tests {
             .expect("with one reach for every sample, the road behind fits");
         assert!(h.s[g0] - h.s[slid.place.target] < 3.0 * length);
         assert!(register(&h, &spatial, g0, g1, &far, &prior).is_none());
+    }
+
+    /// The map's first road runs along +x from the origin; the later pass
+    /// comes down a cross street at x = -10, where the map was never
+    /// driven, and turns onto it (KITTI 00's last revisit: back on the
+    /// road it started on). Laid where it was driven, the cross street and
+    /// the turn lie beyond the map's first sample, where the map knows
+    /// nothing: they count half ([`OPEN_CREDIT`]). The same window laid on
+    /// the middle of that road, 200 along, has its cross street off the
+    /// map: no credit.
+    #[test]
+    fn a_window_entering_the_first_road_from_beyond_its_start_counts_that_part_half() {
+        let mut points = road(&[(0.0, 0.0), (400.0, 0.0)]);
+        points.extend(road(&[(400.0, 0.0), (400.0, 2000.0), (-2000.0, 2000.0)]));
+        let g0 = points.len();
+        points.extend(road(&[(-10.0, 60.0), (-10.0, 10.0)]));
+        points.extend(
+            quarter_turn(10.0)
+                .iter()
+                .map(|p| p - Vector2::new(10.0, 0.0)),
+        );
+        points.extend(road(&[(0.0, 0.0), (60.0, 0.0)]));
+        let g1 = points.len() - 1;
+        let (h, _) = history(&points);
+        let h = h.now();
+        let band = BAND_FRACTION * (h.s[g1] - h.s[g0]);
+        let (window, _) = Window::new(&h, g0, g1, band);
+        let before: Vec<(Vector2<f64>, f64, u32)> = (0..g0 - 1)
+            .map(|t| (h.point(t), heading(&h, t), t as u32))
+            .collect();
+        let map = Map::new(before, band);
+        let along = |x: f64| Similarity2 {
+            scale: 1.0,
+            angle: 0.0,
+            translation: Vector2::new(x, 0.0),
+        };
+        let at_start = window.support(&map, &along(0.0)).support;
+        let in_middle = window.support(&map, &along(200.0)).support;
+        // Laid at the start, every point off the map lies before the first
+        // one on it, beyond the map's first sample: each counts half.
+        let on: f64 = window
+            .points
+            .iter()
+            .zip(&window.weights)
+            .filter(|((p, _), _)| map.nearest(p, &mut Block::default()).is_some())
+            .map(|(_, w)| w)
+            .sum();
+        let off = window.total - on;
+        assert!(
+            off > 0.3 * window.total,
+            "the street and the turn are off the map"
+        );
+        let credited = (on + OPEN_CREDIT * off) / window.total;
+        assert!(
+            (at_start - credited).abs() < 1e-9,
+            "{at_start} against {credited}"
+        );
+        // In the middle, the street is off the map: no credit, though the
+        // corner cut by the turn lies on the road there.
+        assert!(
+            in_middle < at_start - 0.1,
+            "in the middle {in_middle}, at the start {at_start}"
+        );
     }
 
     /// Distance of `p` from the map's two roads.
