@@ -191,3 +191,23 @@ fn the_road_just_driven_does_not_take_the_registration() {
 fn a_return_to_the_first_road_is_not_held_against_the_map_before_it() {
     placed_on_the_network("tests/data/00.txt", 4, [4427, 4540], 4541);
 }
+
+/// The same revisit under seed 16: the start road lies within reach, but
+/// the window's entry lies beyond the map's first pose, where nothing
+/// votes, so its place gathered fewer votes than straights elsewhere that
+/// lay every point on a road, and was never checked. The cell most votes
+/// onto the first road agree on is now checked too.
+#[test]
+fn the_first_roads_best_vote_cell_is_checked() {
+    placed_on_the_network("tests/data/00.txt", 16, [4427, 4540], 4541);
+}
+
+/// The same revisit under seed 2: the drifted map puts the start road
+/// 142-169 m from the windows, beyond the registration's capped reach
+/// (112 m) though within the drift prior's (290 m over 3.6 km of path).
+/// The first window length of the map's first road is now searched as far
+/// as the prior reaches (`register::FIRST_ROAD`).
+#[test]
+fn the_first_road_is_searched_as_far_as_the_drift_prior_reaches() {
+    placed_on_the_network("tests/data/00.txt", 2, [4427, 4540], 4541);
+}
