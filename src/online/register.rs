@@ -418,6 +418,7 @@ pub fn register(
     // loops close, and one road adds few rivals.
     let capped = samples.len();
     let first_road = h.s[0] + FIRST_ROAD * length;
+    let first_sample = h.s.partition_point(|&s| s <= first_road) as u32;
     for t in (0..h.xy.len()).step_by(spatial.every().max(1)) {
         if h.s[t] > first_road.min(s_end) {
             break;
@@ -441,7 +442,7 @@ pub fn register(
         .map(|b| (b as f64 * ANGLE_BIN).sin_cos())
         .collect();
     let near2 = (bounds.radius + half).powi(2);
-    // The same votes onto the map's first road alone (see below).
+    // The votes onto the map's first road alone (see below).
     let mut at_start: HashMap<(i32, i32, i32), u64, CellHash> = HashMap::default();
     // Every other point votes: a point on a straight votes for a line of
     // slides along each parallel road, and the lines of two straights that
@@ -471,8 +472,11 @@ pub fn register(
                 continue;
             }
             let cell = (b, key(t.x), key(t.y));
-            *votes.entry(cell).or_default() |= 1 << i;
-            if sample <= window.start.zone {
+            // The first road beyond the reach votes for its own cell alone.
+            if j < capped {
+                *votes.entry(cell).or_default() |= 1 << i;
+            }
+            if sample <= first_sample {
                 *at_start.entry(cell).or_default() |= 1 << i;
             }
         }
@@ -498,17 +502,19 @@ pub fn register(
     // A window that returns to the map's first road has its entry beyond
     // the map's first pose, where nothing votes: its place gathers fewer
     // votes than straights elsewhere that lay every point on a road, and
-    // was not checked. The cell most votes onto the first road agree on is
-    // checked too (its entry counts half there, `OpenStart`).
-    if let Some(start) = at_start
-        .iter()
-        .max_by_key(|(k, bits)| (bits.count_ones(), std::cmp::Reverse(**k)))
-        .map(|(k, _)| *k)
-    {
-        if !kept.iter().any(|c| c.0 == start) {
-            kept.push((start, votes[&start]));
-        }
-    }
+    // was not checked. The cells most votes onto the first road agree on
+    // (as many as one place has above) are checked too, apart from the
+    // others: their entry counts half there (`OpenStart`). One refined off
+    // the first road is some other cell's place again (a rival of the true
+    // one by its rotation alone): left out.
+    let mut start_cells: Vec<((i32, i32, i32), u64)> = at_start
+        .into_iter()
+        .filter(|(k, _)| !kept.iter().any(|c| c.0 == *k))
+        .collect();
+    start_cells.sort_unstable_by_key(|(k, bits)| (std::cmp::Reverse(bits.count_ones()), *k));
+    start_cells.truncate(PER_PLACE);
+    kept.extend(&start_cells);
+    let is_start = |cell: &(i32, i32, i32)| start_cells.iter().any(|c| c.0 == *cell);
     let cells = kept;
     let score = |sim: &Similarity2, support: f64| -> Option<(f64, Registration)> {
         // The map sample under the window point nearest the middle that
@@ -545,7 +551,7 @@ pub fn register(
         ))
     };
     let mut placements: Vec<(f64, Registration, OnMap)> = Vec::new();
-    for ((b, kx, ky), _) in cells {
+    for (cell @ (b, kx, ky), _) in cells {
         // history_T_window about the centroid: p -> c + t + R (p - c).
         let rotate = Similarity2 {
             scale: 1.0,
@@ -559,7 +565,9 @@ pub fn register(
         };
         let on = window.support(&map, &start);
         let (sim, on) = window.refine(&map, start, on, ROUNDS.0);
-        placements.extend(score(&sim, on.support).map(|(s, r)| (s, r, on)));
+        let placed = score(&sim, on.support)
+            .filter(|(_, r)| !is_start(&cell) || h.s[r.place.target] <= first_road);
+        placements.extend(placed.map(|(s, r)| (s, r, on)));
     }
     placements.sort_by(|a, b| b.0.total_cmp(&a.0));
     for placement in placements.iter_mut().take(TOP_REFINED) {
