@@ -450,33 +450,45 @@ pub fn register(
     // most: one strong-drift event of 44 fewer; all 48 points: one more, at
     // twice the time.)
     let voters = (0..POINTS).step_by(VOTE_EVERY);
+    // The vote cell of window point `p` (`d` from the centroid, heading
+    // `phi`) laid on map sample `m` (heading `psi`), within `near2` of it
+    // and a translation within `r2`.
+    let vote = |p: &Vector2<f64>,
+                d: &Vector2<f64>,
+                phi: f64,
+                m: &Vector2<f64>,
+                psi: f64,
+                r2: f64,
+                near2: f64| {
+        if (m - p).norm_squared() > near2 {
+            return None;
+        }
+        let theta = axial(psi - phi);
+        if theta.abs() > bounds.angle {
+            return None;
+        }
+        let b = (theta / ANGLE_BIN).round() as i32;
+        let (s, c) = rot[(b + na) as usize];
+        let t = m - centroid - Vector2::new(c * d.x - s * d.y, s * d.x + c * d.y);
+        (t.norm_squared() <= r2).then(|| (b, key(t.x), key(t.y)))
+    };
+    let (in_reach, beyond) = map.samples.split_at(capped);
     for i in voters {
         let (p, phi) = &window.points[i];
         let d = p - centroid;
-        for (j, (&(m, psi, sample), &r2)) in map.samples.iter().zip(&reach2).enumerate() {
-            let near2 = match j < capped {
-                true => near2,
-                false => (r2.sqrt() + half).powi(2),
+        for (&(m, psi, sample), &r2) in in_reach.iter().zip(&reach2) {
+            let Some(cell) = vote(p, &d, *phi, &m, psi, r2, near2) else {
+                continue;
             };
-            if (m - p).norm_squared() > near2 {
-                continue;
-            }
-            let theta = axial(psi - phi);
-            if theta.abs() > bounds.angle {
-                continue;
-            }
-            let b = (theta / ANGLE_BIN).round() as i32;
-            let (s, c) = rot[(b + na) as usize];
-            let t = m - centroid - Vector2::new(c * d.x - s * d.y, s * d.x + c * d.y);
-            if t.norm_squared() > r2 {
-                continue;
-            }
-            let cell = (b, key(t.x), key(t.y));
-            // The first road beyond the reach votes for its own cell alone.
-            if j < capped {
-                *votes.entry(cell).or_default() |= 1 << i;
-            }
+            *votes.entry(cell).or_default() |= 1 << i;
             if sample <= first_sample {
+                *at_start.entry(cell).or_default() |= 1 << i;
+            }
+        }
+        // The first road beyond the reach votes for its own cells alone.
+        for (&(m, psi, _), &r2) in beyond.iter().zip(&reach2[capped..]) {
+            let near2 = (r2.sqrt() + half).powi(2);
+            if let Some(cell) = vote(p, &d, *phi, &m, psi, r2, near2) {
                 *at_start.entry(cell).or_default() |= 1 << i;
             }
         }
