@@ -19,6 +19,13 @@
 //!   t     = m - c - R(theta) (p - c)             (about the window centroid c)
 //!   vote (theta, t) for window point p; placement = most agreeing points
 //! ```
+//!
+//! The map's first road is a place of its own: a return to where the path
+//! began (the commonest loop) enters it from beyond the map's first pose,
+//! where the map knows nothing. There a window point counts half
+//! (`OpenStart`), the first road's best vote cells are always checked,
+//! and its first window length is searched as far as the drift prior
+//! reaches.
 
 use std::collections::HashMap;
 
