@@ -24,12 +24,15 @@ pub(super) struct Map {
     /// Sample indices, cell by cell, in sample order within a cell.
     items: Vec<u32>,
     radius: f64,
+    /// The earliest track sample held.
+    pub(super) first: u32,
 }
 
 impl Map {
     /// The grid of `samples` for lookups within `radius`.
     pub(super) fn new(samples: Vec<(Vector2<f64>, f64, u32)>, radius: f64) -> Self {
         let mut map = Map {
+            first: samples.iter().map(|s| s.2).min().unwrap_or(u32::MAX),
             samples,
             grid: HashMap::default(),
             items: Vec::new(),
