@@ -31,14 +31,6 @@ impl Probed {
         }
     }
 
-    /// Whether the road was found only with the drifting map's wider radius.
-    pub fn drifting(&self) -> bool {
-        match self {
-            Probed::Seed(seed) => seed.drifted,
-            Probed::Roads { .. } => true,
-        }
-    }
-
     /// The probed window's track samples.
     pub fn query(&self) -> [usize; 2] {
         match self {
