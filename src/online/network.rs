@@ -105,9 +105,7 @@ pub fn register_newest(
     let Some(placed) = register::register(h, spatial, g0, g1, &bounds, prior) else {
         return Some((g1, Vec::new()));
     };
-    let rival = (placed.margin < REGISTER_MARGIN)
-        .then_some(placed.rival)
-        .flatten();
+    let rival = placed.rival.filter(|_| placed.margin < REGISTER_MARGIN);
     let room = g1 - g0;
     let found = std::iter::once(placed.place)
         .chain(rival)

@@ -226,6 +226,8 @@ pub fn register(
     // prior reaches without the cap: where the path began is where most
     // loops close, and one road adds few rivals.
     let capped = samples.len();
+    // Their nearness bound, as `near2` below but at each one's own reach.
+    let mut near2_beyond = Vec::new();
     let road = window.start.road;
     for t in (0..=road as usize).step_by(spatial.every().max(1)) {
         if h.s[t] > s_end {
@@ -236,6 +238,7 @@ pub fn register(
         if d > bounds.radius.min(r) + half + band && d <= r + half + band {
             samples.push((h.point(t), heading(h, t), t as u32));
             reach2.push(r * r);
+            near2_beyond.push((r + half).powi(2));
         }
     }
     if samples.is_empty() {
@@ -294,8 +297,8 @@ pub fn register(
             }
         }
         // The first road beyond the reach votes for its own cells alone.
-        for (&(m, psi, _), &r2) in beyond.iter().zip(&reach2[capped..]) {
-            let near2 = (r2.sqrt() + half).powi(2);
+        let far = reach2[capped..].iter().zip(&near2_beyond);
+        for (&(m, psi, _), (&r2, &near2)) in beyond.iter().zip(far) {
             if let Some(cell) = vote(p, &d, *phi, &m, psi, r2, near2) {
                 *at_start.entry(cell).or_default() |= 1 << i;
             }
