@@ -23,6 +23,7 @@ pub mod cli;
 pub mod config;
 pub mod correlator;
 pub mod detector;
+pub mod drift_path;
 pub mod events;
 pub mod frontend;
 pub mod guard;

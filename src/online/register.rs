@@ -31,6 +31,7 @@ use std::collections::HashMap;
 
 use nalgebra::Vector2;
 
+use super::drift_path::{self, PathMoments};
 use super::history::{CellHash, HistoryView, SpatialIndex};
 use super::probe;
 use crate::geometry::Similarity2;
@@ -352,16 +353,12 @@ pub fn register(
         let target = outward
             .find_map(|k| map.nearest(&to_map(&window.points[k].0), &mut block))
             .map(|j| map.samples[j].2 as usize)?;
-        let mut offsets: Vec<f64> = window
-            .points
-            .iter()
-            .map(|(p, _)| (to_map(p) - p).norm())
-            .collect();
-        offsets.sort_by(f64::total_cmp);
-        let angle = sim.angle.rem_euclid(std::f64::consts::TAU);
-        let angle = angle.min(std::f64::consts::TAU - angle);
-        let between = (h.s[g0] - h.s[target]).max(0.0);
-        let factor = prior.factor(angle, 1.0, offsets[POINTS / 2], length, between);
+        // The drift prior along the path between (`drift_path`): the
+        // angle and the offset as drift makes them agree.
+        let path = PathMoments::between(h, target, (g0 + g1) / 2);
+        let factor = drift_path::factor(drift_path::mahalanobis2(
+            prior, sim, centroid, &path, length,
+        ));
         Some((
             support * factor.sqrt(),
             Registration {

@@ -9,6 +9,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use super::correlator::{BlockCorrelator, LazyPiece, Piece};
+use super::drift_path::{self, PathMoments};
 use super::events::Source;
 use super::history::{History, HistoryView, SpatialIndex, Window};
 use super::scan;
@@ -141,6 +142,9 @@ pub struct Found {
     /// Which search found it (a drifting-map probe's candidate is emitted
     /// from [`OnlineConfig::drift_min_score`]).
     pub source: Source,
+    /// Squared Mahalanobis distance of its correction under the drift prior
+    /// along the path between its two passes ([`super::drift_path`]).
+    pub drift_path: f64,
 }
 
 impl crate::pipeline::rank::Ranked for Found {
@@ -490,6 +494,11 @@ fn grow_seed(
 /// the track grid step.
 pub(super) fn emitted(f: &Found, config: &OnlineConfig, step: f64) -> bool {
     let h = &f.hypothesis;
+    // Angle and offset as the drift along the path between makes them
+    // agree (`drift_path`), whatever the source.
+    if f.drift_path > config.drift_path_cut {
+        return false;
+    }
     let drifting = || {
         h.score >= config.drift_min_score
             && h.scale.ln().abs() <= DRIFT_SCALE.ln()
@@ -610,25 +619,32 @@ fn finish(
     }
     let lifted = frame.plane.lift(&frame.plane, &a_T_b);
     let pc = &config.pipeline;
-    // Drift prior: similarity near identity up to the distance in between.
-    let offset = {
-        let mut d: Vec<f64> = o
-            .pairs
-            .iter()
-            .map(|&(t, q)| (tw.path.track.point_at(t) - qw.path.track.xy[q]).norm())
-            .collect();
-        d.sort_by(f64::total_cmp);
-        d.get(d.len() / 2).copied().unwrap_or(0.0)
-    };
     let s_of = |w: &Window, g: f64| crate::track::Track::interp(h.s, g + w.grid0 as f64);
     let between = (s_of(qw, o.query[0] as f64) - s_of(tw, o.target[1])).abs();
     let length = o.target_length.max(o.query_length);
-    let angle = a_T_b.angle.rem_euclid(std::f64::consts::TAU);
-    let angle = angle.min(std::f64::consts::TAU - angle);
+    // Drift prior: the angle and offset of `map_T_query` as the drift along
+    // the path between the two parts' middles makes them agree, the scale
+    // change as the batch prior has it.
+    let drift_path = pc.drift_prior.as_ref().map_or(0.0, |prior| {
+        let n = o.pairs.len().max(1) as f64;
+        let x = o
+            .pairs
+            .iter()
+            .map(|&(_, q)| qw.path.track.xy[q])
+            .sum::<Vector2<f64>>()
+            / n;
+        let mid = |w: &Window, a: f64, b: f64| w.grid0 + (0.5 * (a + b)).round() as usize;
+        let path = PathMoments::between(
+            h,
+            mid(tw, o.target[0], o.target[1]),
+            mid(qw, o.query[0] as f64, o.query[1] as f64),
+        );
+        drift_path::mahalanobis2(prior, &o.a_T_b, x, &path, length)
+    });
     let s = match &pc.drift_prior {
         Some(prior) => loop_score(
             &v.evidence,
-            prior.factor(angle, a_T_b.scale, offset, length, between),
+            drift_path::factor(drift_path) * prior.factor(0.0, a_T_b.scale, 0.0, length, between),
             &pc.score,
         ),
         None => score(&v.evidence, &pc.score),
@@ -654,5 +670,6 @@ fn finish(
             correspondences,
         },
         source,
+        drift_path,
     })
 }
