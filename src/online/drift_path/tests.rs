@@ -1,3 +1,6 @@
+// Frame names as Sophus writes them: `a_T_b` maps points from b to a.
+#![allow(non_snake_case)]
+
 use super::*;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};

@@ -153,7 +153,10 @@ fn the_road_just_driven_is_no_place_for_the_window() {
     };
     let slid = register(&h, &spatial, g0, g1, &one_reach, &prior)
         .expect("with one reach for every sample, the road behind fits");
-    assert!(h.s[g0] - h.s[slid.place.target] < 3.0 * length);
+    // Somewhere on the road behind: the drift prior along the path puts no
+    // slide near (a slide along a straight after driving it needs a scale
+    // error as large), so the least unlikely is the farthest in reach.
+    assert!(slid.place.target < g0 && slid.prior < 1e-3, "{slid:?}");
     assert!(register(&h, &spatial, g0, g1, &far, &prior).is_none());
 }
 
@@ -254,7 +257,11 @@ fn a_drifted_turn_between_two_roads_is_placed_where_they_meet() {
         (reg.place.sim.apply(&junction) - Vector2::new(5.0, 5.0)).norm() <= 2.0 * band,
         "{reg:?}"
     );
-    assert!(reg.support > 0.9 && reg.margin >= 1.5, "{reg:?}");
+    // Unambiguous enough that the rival is not emitted with it. (1.5
+    // before the drift prior along the path: this drift, one turn about the
+    // origin and a shift, is not one the path between would pick up, and
+    // the map's first road behind the junction is now its rival at 1.4.)
+    assert!(reg.support > 0.9 && reg.margin >= REGISTER_MARGIN, "{reg:?}");
 }
 
 /// A turn at one of two look-alike junctions 40 units apart (a third of
