@@ -261,7 +261,10 @@ fn a_drifted_turn_between_two_roads_is_placed_where_they_meet() {
     // before the drift prior along the path: this drift, one turn about the
     // origin and a shift, is not one the path between would pick up, and
     // the map's first road behind the junction is now its rival at 1.4.)
-    assert!(reg.support > 0.9 && reg.margin >= REGISTER_MARGIN, "{reg:?}");
+    assert!(
+        reg.support > 0.9 && reg.margin >= REGISTER_MARGIN,
+        "{reg:?}"
+    );
 }
 
 /// A turn at one of two look-alike junctions 40 units apart (a third of
