@@ -36,7 +36,7 @@ use crate::score::DriftPrior;
 
 /// Most track samples summed per path (a stride keeps the cost flat on
 /// long histories; the moments are smooth in the path).
-const SAMPLES: usize = 256;
+const SAMPLES: usize = 64;
 
 /// Arc-weighted moments of a stretch of the track.
 #[derive(Debug, Clone, Copy, PartialEq)]
