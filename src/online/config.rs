@@ -47,9 +47,8 @@ pub struct OnlineConfig {
     /// reach is laid there by a turn and a shift that drift does not pair.
     /// Strong drift, seeds 1-40 (held out 41-80): 409 (396) of 440 events
     /// at a share of correct candidates of 0.35 (0.36) without it and the
-    /// path's prior, 411 (406) at 0.47 (0.47) with both; 4.5 kept the same
-    /// events on strong drift at 0.48 but lost KITTI 08's monocular
-    /// revisit.
+    /// path's prior, 411 (406) at 0.47 (0.47) with both; a cut of 4.5 gave
+    /// 410 (404) at 0.48 but lost KITTI 08's monocular revisit.
     pub drift_path_cut: f64,
     /// Shape candidates verified per finalised segment (strongest first).
     pub max_verify: usize,
