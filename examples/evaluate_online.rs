@@ -23,7 +23,8 @@
 //! `MIN_SCORE=x` sets `OnlineConfig::min_score`, `DRIFT_MIN_SCORE=x`
 //! `OnlineConfig::drift_min_score`; `DRIFT_PROBE=0` turns off
 //! `OnlineConfig::drift_probe` (on by default); `WORKERS=n` sets
-//! `OnlineConfig::workers` (the candidates are the same).
+//! `OnlineConfig::workers` (the candidates are the same); `PRIOR_GATE=0` turns
+//! off `OnlineConfig::prior_gate` (the candidates are the same).
 
 use std::path::Path;
 
@@ -107,6 +108,9 @@ fn main() {
         }
         if let Ok(v) = std::env::var("WORKERS") {
             config.workers = v.parse().expect("WORKERS");
+        }
+        if let Ok(v) = std::env::var("PRIOR_GATE") {
+            config.prior_gate = v == "1";
         }
         let drift = config.pipeline.drift_prior.unwrap_or_default();
         let mut det = Detector::new(config, Overflow::Block);

@@ -520,6 +520,12 @@ const GATE_SLACK: (f64, f64, f64) = (5.0 * std::f64::consts::PI / 180.0, 0.05, 0
 
 /// Whether a candidate with this RANSAC similarity (query -> target) and
 /// these seed pairs can still reach the score cut `cut` under the drift prior,
+/// bounded by the batch prior's separate terms. (The score weighs angle and
+/// offset jointly along the path between, `drift_path`, which these terms
+/// do not bound by construction: with the gate off, the candidates of
+/// strong drift seeds 1-80, GT, ORB-SLAM2 and S-PTAM are the same,
+/// `PRIOR_GATE=0` in `examples/evaluate_online.rs`, and
+/// `tests/online_gate.rs` checks four streams.)
 /// for any overlap length in `length` and a distance between the parts up
 /// to `between` plus that length (`loop_score <= sqrt(prior)`), with
 /// [`GATE_SLACK`] times `widen`.
