@@ -13,6 +13,9 @@
 //! - [`register`]: the newest stretch placed on the whole road network (a
 //!   drifting map's revisit entered and left by other roads);
 //! - [`network`]: when the detector registers, and the candidate it grows;
+//! - [`drift_path`]: the drift prior along the path between a revisit's
+//!   passes (angle and offset as drift pairs them), which weighs
+//!   placements and candidates;
 //! - [`worker`]: the thread, the bounded queue and its overflow policy;
 //! - [`events`]: candidates and verifier outcomes;
 //! - [`detector`]: the public type;
