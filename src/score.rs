@@ -121,10 +121,17 @@ impl DriftPrior {
     pub fn factor(&self, angle: f64, scale: f64, offset: f64, length: f64, distance: f64) -> f64 {
         let ratio = (distance / length.max(f64::MIN_POSITIVE)).max(0.0).sqrt();
         let sigma_angle = self.heading_floor + self.heading * ratio;
-        let sigma_scale = self.scale_floor + self.scale * ratio;
         let sigma_offset = 0.1 * length + self.position * distance;
-        let term = |x: f64, sigma: f64| 1.0 / (1.0 + (x / sigma).powi(2));
-        term(angle, sigma_angle) * term(scale.ln(), sigma_scale) * term(offset, sigma_offset)
+        term(angle, sigma_angle)
+            * self.scale_factor(scale, length, distance)
+            * term(offset, sigma_offset)
+    }
+
+    /// The scale term of [`DriftPrior::factor`] alone (the online score
+    /// weighs angle and offset jointly, `online::drift_path`).
+    pub fn scale_factor(&self, scale: f64, length: f64, distance: f64) -> f64 {
+        let ratio = (distance / length.max(f64::MIN_POSITIVE)).max(0.0).sqrt();
+        term(scale.ln(), self.scale_floor + self.scale * ratio)
     }
 
     /// An upper bound of [`DriftPrior::factor`] before the overlap is
@@ -144,9 +151,13 @@ impl DriftPrior {
         let sigma_angle = self.heading_floor + self.heading * ratio;
         let sigma_scale = self.scale_floor + self.scale * ratio;
         let sigma_offset = 0.1 * length[1] + self.position * distance;
-        let term = |x: f64, sigma: f64| 1.0 / (1.0 + (x / sigma).powi(2));
         term(angle, sigma_angle) * term(scale.ln(), sigma_scale) * term(offset, sigma_offset)
     }
+}
+
+/// A heavy-tailed factor in `(0, 1]` of a deviation `x` at scale `sigma`.
+fn term(x: f64, sigma: f64) -> f64 {
+    1.0 / (1.0 + (x / sigma).powi(2))
 }
 
 /// An upper bound of [`loop_score`] given the drift prior: every other

@@ -650,7 +650,7 @@ fn finish(
     let s = match &pc.drift_prior {
         Some(prior) => loop_score(
             &v.evidence,
-            drift_path::factor(drift_path) * prior.factor(0.0, a_T_b.scale, 0.0, length, between),
+            drift_path::factor(drift_path) * prior.scale_factor(a_T_b.scale, length, between),
             &pc.score,
         ),
         None => score(&v.evidence, &pc.score),
