@@ -25,6 +25,10 @@
 //! `OnlineConfig::drift_probe` (on by default); `WORKERS=n` sets
 //! `OnlineConfig::workers` (the candidates are the same); `PRIOR_GATE=0` turns
 //! off `OnlineConfig::prior_gate` (the candidates are the same).
+//! `SIMILARITY=1` streams the input under a random similarity (scale
+//! log-uniform in 0.01..100, any 3D rotation, a translation; drawn from
+//! `SEED`, apart from the drift's draw); `REVERSE=1` streams it driven the
+//! other way (events are then those of the reversed drive).
 
 use std::path::Path;
 
@@ -96,6 +100,9 @@ fn main() {
             }
             _ => (gt_xyz.clone(), (0..gt_xyz.len()).collect()),
         };
+        // The whole input in another frame and scale (`SIMILARITY=1`) or
+        // driven the other way (`REVERSE=1`): the detector knows neither.
+        let (input, frames) = reframed(input, frames, gt_xyz.len(), seed);
         let mut config = OnlineConfig::default();
         if let Ok(v) = std::env::var("MIN_SCORE") {
             config.min_score = v.parse().expect("MIN_SCORE");
@@ -128,7 +135,11 @@ fn main() {
         let wall = t0.elapsed().as_secs_f64();
         lat.sort_by(f64::total_cmp);
         // Ground truth in input index space.
-        let g: Vec<Vector3<f64>> = frames.iter().map(|&f| gt_xyz[f]).collect();
+        let gt_streamed: Vec<Vector3<f64>> = match std::env::var("REVERSE").is_ok_and(|v| v == "1") {
+            true => gt_xyz.iter().rev().copied().collect(),
+            false => gt_xyz.clone(),
+        };
+        let g: Vec<Vector3<f64>> = frames.iter().map(|&f| gt_streamed[f]).collect();
         let arc = turnprint::eval::revisits::arc_lengths(&g);
         let events = revisit_events(&g, &frames, &arc);
         if show_events {
@@ -256,6 +267,33 @@ fn main() {
         "certificate  events with a shape rival under the drift prior {} (detected {}); without {} (detected {}); too long for one similarity {} (detected {})",
         rival.0, rival.1, none.0, none.1, undecided.0, undecided.1
     );
+}
+
+/// The input under `SIMILARITY=1` and `REVERSE=1` (module doc), with the
+/// GT frame of each pose; a reversed drive's frames count down from the
+/// end, so "300 frames earlier" stays earlier in the order streamed.
+fn reframed(
+    mut input: Vec<Vector3<f64>>,
+    mut frames: Vec<usize>,
+    n_gt: usize,
+    seed: u64,
+) -> (Vec<Vector3<f64>>, Vec<usize>) {
+    let on = |name: &str| std::env::var(name).is_ok_and(|v| v == "1");
+    if on("SIMILARITY") {
+        use rand::SeedableRng;
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x5171_1a71);
+        let extent = turnprint::eval::revisits::arc_lengths(&input)
+            .last()
+            .copied()
+            .unwrap_or(1.0);
+        let b_t_a = turnprint::eval::similarity::random_similarity(&mut rng, extent);
+        input = input.iter().map(|p| b_t_a.apply(p)).collect();
+    }
+    if on("REVERSE") {
+        input.reverse();
+        frames = frames.iter().rev().map(|&f| n_gt - 1 - f).collect();
+    }
+    (input, frames)
 }
 
 /// Road before an event that its certificate counts as seen (m).
