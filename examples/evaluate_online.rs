@@ -135,7 +135,7 @@ fn main() {
         let wall = t0.elapsed().as_secs_f64();
         lat.sort_by(f64::total_cmp);
         // Ground truth in input index space.
-        let gt_streamed: Vec<Vector3<f64>> = match std::env::var("REVERSE").is_ok_and(|v| v == "1") {
+        let gt_streamed: Vec<Vector3<f64>> = match flag("REVERSE") {
             true => gt_xyz.iter().rev().copied().collect(),
             false => gt_xyz.clone(),
         };
@@ -269,6 +269,11 @@ fn main() {
     );
 }
 
+/// Whether the environment variable `name` is set to 1.
+fn flag(name: &str) -> bool {
+    std::env::var(name).is_ok_and(|v| v == "1")
+}
+
 /// The input under `SIMILARITY=1` and `REVERSE=1` (module doc), with the
 /// GT frame of each pose; a reversed drive's frames count down from the
 /// end, so "300 frames earlier" stays earlier in the order streamed.
@@ -278,8 +283,7 @@ fn reframed(
     n_gt: usize,
     seed: u64,
 ) -> (Vec<Vector3<f64>>, Vec<usize>) {
-    let on = |name: &str| std::env::var(name).is_ok_and(|v| v == "1");
-    if on("SIMILARITY") {
+    if flag("SIMILARITY") {
         use rand::SeedableRng;
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x5171_1a71);
         let extent = turnprint::eval::revisits::arc_lengths(&input)
@@ -289,7 +293,7 @@ fn reframed(
         let b_t_a = turnprint::eval::similarity::random_similarity(&mut rng, extent);
         input = input.iter().map(|p| b_t_a.apply(p)).collect();
     }
-    if on("REVERSE") {
+    if flag("REVERSE") {
         input.reverse();
         frames = frames.iter().rev().map(|&f| n_gt - 1 - f).collect();
     }
