@@ -121,9 +121,10 @@ fn median_hint(found: &[CandidateEvent]) -> (f64, f64) {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
+    let hints = found.iter().map(|c| &c.hypothesis);
     (
-        median(found.iter().map(|c| c.hypothesis.scale.ln().abs()).collect()),
-        median(found.iter().map(|c| c.hypothesis.rotation_angle()).collect()),
+        median(hints.clone().map(|h| h.scale.ln().abs()).collect()),
+        median(hints.map(|h| h.rotation_angle()).collect()),
     )
 }
 
