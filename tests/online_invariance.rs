@@ -8,6 +8,7 @@
 //! rescaled floating point move a segment boundary by a sample here and
 //! there, so a matching may fall due a pose earlier or later. What must not
 //! change is which revisits are found, and roughly how many candidates.
+#![cfg(feature = "eval")]
 
 use std::path::Path;
 
@@ -15,7 +16,9 @@ use nalgebra::{Rotation3, Vector3};
 use turnprint::eval::revisits::{arc_lengths, events, revisits};
 use turnprint::geometry::Similarity3;
 use turnprint::io::{read_trajectory, Format};
-use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
+use turnprint::online::{CandidateEvent, OnlineConfig};
+
+mod common;
 
 fn kitti(name: &str) -> Vec<Vector3<f64>> {
     read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Kitti)
@@ -23,37 +26,13 @@ fn kitti(name: &str) -> Vec<Vector3<f64>> {
         .positions()
 }
 
-/// Every candidate of streaming `points` with the default settings.
-fn streamed(points: &[Vector3<f64>]) -> Vec<CandidateEvent> {
-    let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
-    let mut found = Vec::new();
-    for p in points {
-        d.push(&PoseInput::at(*p));
-        found.extend(d.poll());
-    }
-    found.extend(d.finish().0);
-    found
-}
-
 /// The revisit events of the ground truth `gt` (a pose within 8 m of one at
 /// least 300 frames earlier, runs of at least 40 m: EVALUATION_ONLINE.md)
 /// that a correct candidate detects before the event ends + 40 m.
 /// A candidate is correct when the median ground-truth distance from its
-/// query poses to its match range is at most 10 m.
+/// query poses to its match range is at most 10 m (`common::is_correct`).
 fn detected(gt: &[Vector3<f64>], found: &[CandidateEvent]) -> Vec<bool> {
     let arc = arc_lengths(gt);
-    let correct = |c: &CandidateEvent| {
-        let h = &c.hypothesis;
-        let mut d: Vec<f64> = (h.a_range[0]..=h.a_range[1])
-            .map(|i| {
-                (h.b_range[0]..=h.b_range[1])
-                    .map(|j| (gt[i] - gt[j]).norm())
-                    .fold(f64::INFINITY, f64::min)
-            })
-            .collect();
-        d.sort_by(f64::total_cmp);
-        d[d.len() / 2] <= 10.0
-    };
     events(&revisits(gt, 8.0, 300), &arc, 19, 40.0)
         .iter()
         .map(|e| {
@@ -63,14 +42,15 @@ fn detected(gt: &[Vector3<f64>], found: &[CandidateEvent]) -> Vec<bool> {
                     && h.a_range[1] >= e.first
                     && c.at_pose >= e.first
                     && arc[c.at_pose.min(arc.len() - 1)] <= arc[e.last] + 40.0
-                    && correct(c)
+                    && common::is_correct(c, gt)
             })
         })
         .collect()
 }
 
-/// `b_t_a` (maps ground-truth points into the streamed frame): scale `s`, a rotation about an oblique axis (the road plane is
-/// no longer horizontal), a translation of many path lengths.
+/// `b_t_a`, which maps ground-truth points into the streamed frame: scale
+/// `s`, a rotation about an oblique axis (the road plane is no longer
+/// horizontal), a translation of many path lengths.
 fn frame(s: f64, angle: f64) -> Similarity3 {
     let axis = nalgebra::Unit::new_normalize(Vector3::new(0.3, -0.8, 0.52));
     Similarity3 {
@@ -82,7 +62,7 @@ fn frame(s: f64, angle: f64) -> Similarity3 {
 
 fn same_revisits_in_any_frame(name: &str) {
     let gt = kitti(name);
-    let own = streamed(&gt);
+    let own = common::emitted_candidates(&gt, OnlineConfig::default());
     let own_detected = detected(&gt, &own);
     assert!(
         !own_detected.is_empty() && own_detected.iter().all(|&d| d),
@@ -91,7 +71,7 @@ fn same_revisits_in_any_frame(name: &str) {
     for (s, angle) in [(0.01, 2.1), (100.0, -0.7), (1.0, 3.0)] {
         let b_t_a = frame(s, angle);
         let moved: Vec<Vector3<f64>> = gt.iter().map(|p| b_t_a.apply(p)).collect();
-        let found = streamed(&moved);
+        let found = common::emitted_candidates(&moved, OnlineConfig::default());
         // Indices are shared, so the ground truth judges both runs.
         assert_eq!(
             detected(&gt, &found),
@@ -144,7 +124,7 @@ fn kitti_revisits_are_found_at_any_scale_and_frame() {
 fn revisits_found_driven_the_other_way(name: &str) {
     let mut gt = kitti(name);
     gt.reverse();
-    let found = streamed(&gt);
+    let found = common::emitted_candidates(&gt, OnlineConfig::default());
     let hits = detected(&gt, &found);
     assert!(
         !hits.is_empty() && hits.iter().all(|&d| d),
