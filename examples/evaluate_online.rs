@@ -102,7 +102,7 @@ fn main() {
         };
         // The whole input in another frame and scale (`SIMILARITY=1`) or
         // driven the other way (`REVERSE=1`): the detector knows neither.
-        let (input, frames) = reframed(input, frames, gt_xyz.len(), seed);
+        let (input, frames, g) = reframed(input, frames, &gt_xyz, seed);
         let mut config = OnlineConfig::default();
         if let Ok(v) = std::env::var("MIN_SCORE") {
             config.min_score = v.parse().expect("MIN_SCORE");
@@ -134,12 +134,6 @@ fn main() {
         cands.extend(rest);
         let wall = t0.elapsed().as_secs_f64();
         lat.sort_by(f64::total_cmp);
-        // Ground truth in input index space.
-        let gt_streamed: Vec<Vector3<f64>> = match flag("REVERSE") {
-            true => gt_xyz.iter().rev().copied().collect(),
-            false => gt_xyz.clone(),
-        };
-        let g: Vec<Vector3<f64>> = frames.iter().map(|&f| gt_streamed[f]).collect();
         let arc = turnprint::eval::revisits::arc_lengths(&g);
         let events = revisit_events(&g, &frames, &arc);
         if show_events {
@@ -275,14 +269,16 @@ fn flag(name: &str) -> bool {
 }
 
 /// The input under `SIMILARITY=1` and `REVERSE=1` (module doc), with the
-/// GT frame of each pose; a reversed drive's frames count down from the
-/// end, so "300 frames earlier" stays earlier in the order streamed.
+/// GT frame of each pose and its GT position (input index space); a
+/// reversed drive's frames count down from the end, so "300 frames
+/// earlier" stays earlier in the order streamed.
 fn reframed(
     mut input: Vec<Vector3<f64>>,
     mut frames: Vec<usize>,
-    n_gt: usize,
+    gt: &[Vector3<f64>],
     seed: u64,
-) -> (Vec<Vector3<f64>>, Vec<usize>) {
+) -> (Vec<Vector3<f64>>, Vec<usize>, Vec<Vector3<f64>>) {
+    let mut g: Vec<Vector3<f64>> = frames.iter().map(|&f| gt[f]).collect();
     if flag("SIMILARITY") {
         use rand::SeedableRng;
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x5171_1a71);
@@ -295,9 +291,10 @@ fn reframed(
     }
     if flag("REVERSE") {
         input.reverse();
-        frames = frames.iter().rev().map(|&f| n_gt - 1 - f).collect();
+        g.reverse();
+        frames = frames.iter().rev().map(|&f| gt.len() - 1 - f).collect();
     }
-    (input, frames)
+    (input, frames, g)
 }
 
 /// Road before an event that its certificate counts as seen (m).

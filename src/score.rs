@@ -119,18 +119,17 @@ impl DriftPrior {
     /// `scale`, median map displacement `offset`, matched length `length`,
     /// after travelling `distance` between the parts (same units).
     pub fn factor(&self, angle: f64, scale: f64, offset: f64, length: f64, distance: f64) -> f64 {
-        let ratio = (distance / length.max(f64::MIN_POSITIVE)).max(0.0).sqrt();
-        let sigma_angle = self.heading_floor + self.heading * ratio;
+        let ratio = drift_ratio(length, distance);
         let sigma_offset = 0.1 * length + self.position * distance;
-        term(angle, sigma_angle)
-            * self.scale_factor(scale, length, distance)
+        term(angle, self.heading_floor + self.heading * ratio)
+            * term(scale.ln(), self.scale_floor + self.scale * ratio)
             * term(offset, sigma_offset)
     }
 
     /// The scale term of [`DriftPrior::factor`] alone (the online score
     /// weighs angle and offset jointly, `online::drift_path`).
     pub fn scale_factor(&self, scale: f64, length: f64, distance: f64) -> f64 {
-        let ratio = (distance / length.max(f64::MIN_POSITIVE)).max(0.0).sqrt();
+        let ratio = drift_ratio(length, distance);
         term(scale.ln(), self.scale_floor + self.scale * ratio)
     }
 
@@ -145,14 +144,18 @@ impl DriftPrior {
         length: [f64; 2],
         distance: f64,
     ) -> f64 {
-        let ratio = (distance / length[0].max(f64::MIN_POSITIVE))
-            .max(0.0)
-            .sqrt();
+        let ratio = drift_ratio(length[0], distance);
         let sigma_angle = self.heading_floor + self.heading * ratio;
         let sigma_scale = self.scale_floor + self.scale * ratio;
         let sigma_offset = 0.1 * length[1] + self.position * distance;
         term(angle, sigma_angle) * term(scale.ln(), sigma_scale) * term(offset, sigma_offset)
     }
+}
+
+/// `sqrt(distance / length)`: the drift's sigmas grow with the square root
+/// of the path between the parts, in matched lengths.
+fn drift_ratio(length: f64, distance: f64) -> f64 {
+    (distance / length.max(f64::MIN_POSITIVE)).max(0.0).sqrt()
 }
 
 /// A heavy-tailed factor in `(0, 1]` of a deviation `x` at scale `sigma`.
