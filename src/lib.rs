@@ -7,12 +7,15 @@
 //! io -> geometry::plane -> track -> signature -> segments
 //!    -> matching (ZNCC) -> align (RANSAC, grow, refit) -> hypotheses
 //!    -> pipeline (match / loops / merge)   online (one pose at a time)
+//!    -> correct (pose graph: odometry + loops -> path without drift)
 //! ```
 //!
 //! The online detector reuses the batch stages; the verifier sidecar lives
 //! behind the `verifier` feature so the core builds without OpenCV.
 
 pub mod align;
+#[cfg(feature = "correct")]
+pub mod correct;
 pub mod error;
 pub mod geometry;
 pub mod hypothesis;

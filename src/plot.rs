@@ -69,8 +69,37 @@ pub fn plot_loops(out: &Path, path: &[Vector3<f64>], loops: &[Hypothesis]) -> Re
     render(out, &Figure::Loops { path, loops })
 }
 
+/// One loop of a correction figure: its query and match ranges and whether
+/// the pose graph kept it.
+pub type LoopMark = ([usize; 2], [usize; 2], bool);
+
+/// Draws the path `before` and `after` drift correction in one view (the
+/// corrected path's), with a line between the two parts of each loop on the
+/// corrected path: green if kept, red if rejected.
+pub fn plot_correction(
+    out: &Path,
+    before: &[Vector3<f64>],
+    after: &[Vector3<f64>],
+    loops: &[LoopMark],
+) -> Result<()> {
+    render(
+        out,
+        &Figure::Correction {
+            before,
+            after,
+            loops,
+        },
+    )
+}
+
 /// What a figure shows.
 enum Figure<'a> {
+    /// A path before and after drift correction, and its loops.
+    Correction {
+        before: &'a [Vector3<f64>],
+        after: &'a [Vector3<f64>],
+        loops: &'a [LoopMark],
+    },
     /// A, B in A's frame, and the hypothesis that put it there.
     Merge {
         a: &'a [Vector3<f64>],
@@ -90,6 +119,7 @@ impl Figure<'_> {
         match self {
             Figure::Merge { a, .. } => (a, "path A"),
             Figure::Loops { path, .. } => (path, "the path"),
+            Figure::Correction { after, .. } => (after, "the corrected path"),
         }
     }
 
@@ -98,6 +128,7 @@ impl Figure<'_> {
         let (first, second): (&[Vector3<f64>], &[Vector3<f64>]) = match self {
             Figure::Merge { a, b_in_a, .. } => (a, b_in_a),
             Figure::Loops { path, .. } => (path, &[]),
+            Figure::Correction { before, after, .. } => (after, before),
         };
         first.iter().chain(second)
     }
@@ -296,6 +327,11 @@ fn draw<DB: DrawingBackend>(
     } = match figure {
         Figure::Merge { a, b_in_a, h } => merge_drawing(view, a, b_in_a, h),
         Figure::Loops { path, loops } => loops_drawing(view, path, loops),
+        Figure::Correction {
+            before,
+            after,
+            loops,
+        } => correction_drawing(view, before, after, loops),
     };
     for (points, colour, width) in &lines {
         chart
@@ -390,6 +426,46 @@ fn merge_drawing(
             h.b_range[1],
             h.correspondences.len()
         ),
+    ];
+    Drawing {
+        lines,
+        legend,
+        heading,
+    }
+}
+
+const KEPT_COLOUR: RGBColor = RGBColor(0, 150, 0);
+const REJECTED_COLOUR: RGBColor = RGBColor(220, 30, 30);
+const CORRECTED_COLOUR: RGBColor = RGBColor(0, 60, 255);
+
+/// A correction: the path before (grey) and after (blue), and each loop as a
+/// line between the middles of its two parts on the corrected path.
+fn correction_drawing(
+    view: &View,
+    before: &[Vector3<f64>],
+    after: &[Vector3<f64>],
+    loops: &[LoopMark],
+) -> Drawing {
+    let (b2, a2) = (project(view, before), project(view, after));
+    let mut lines = vec![(b2, PATH_COLOUR, 2), (a2.clone(), CORRECTED_COLOUR, 2)];
+    let middle = |r: [usize; 2]| a2.get((r[0] + r[1]) / 2).copied();
+    for &(query, matched, kept) in loops {
+        let colour = if kept { KEPT_COLOUR } else { REJECTED_COLOUR };
+        lines.push((part(&a2, query), colour, 5));
+        if let (Some(q), Some(m)) = (middle(query), middle(matched)) {
+            lines.push((vec![q, m], colour, 2));
+        }
+    }
+    let kept = loops.iter().filter(|l| l.2).count();
+    let legend = vec![
+        (PATH_COLOUR, 2, "before".to_string()),
+        (CORRECTED_COLOUR, 2, "corrected".to_string()),
+        (KEPT_COLOUR, 4, "loop kept".to_string()),
+        (REJECTED_COLOUR, 4, "loop rejected".to_string()),
+    ];
+    let heading = [
+        format!("drift correction: {} poses", after.len()),
+        format!("{kept} loops kept, {} rejected", loops.len() - kept),
     ];
     Drawing {
         lines,

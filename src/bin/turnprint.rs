@@ -70,6 +70,34 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+    /// Corrects A's drift with its loops (pose graph) and writes it as TUM.
+    Correct {
+        /// The path; `-` reads it from stdin.
+        a: PathBuf,
+        /// Output TUM file: one pose per pose of A, in A's order and frame.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Print one JSON object (cli.md) with the loops kept and rejected.
+        #[arg(long)]
+        json: bool,
+        /// Take the loops from this file (the object `loops --json` prints)
+        /// instead of searching for them.
+        #[arg(long)]
+        loops: Option<PathBuf>,
+        /// Also write the graph before optimisation in g2o's text format.
+        #[arg(long)]
+        g2o: Option<PathBuf>,
+        /// Also draw the path before and after, with the loops kept and
+        /// rejected (SVG or PNG by extension).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv).
+        #[arg(long, default_value = "auto")]
+        format: Format,
+        /// Node group: auto (Sim3 when the loops' scales drift), se3 or sim3.
+        #[arg(long, default_value = "auto", value_parser = group)]
+        group: turnprint::correct::Group,
+    },
     /// Writes A and B (mapped into A's frame by the best hypothesis) as one TUM file.
     Merge {
         /// Path A (the reference frame); `-` reads it from stdin.
@@ -146,6 +174,17 @@ fn score_in_unit_interval(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A node group by name.
+fn group(s: &str) -> Result<turnprint::correct::Group, String> {
+    use turnprint::correct::Group;
+    match s.to_ascii_lowercase().as_str() {
+        "auto" => Ok(Group::Auto),
+        "se3" => Ok(Group::Se3),
+        "sim3" => Ok(Group::Sim3),
+        _ => Err(format!("'{s}' is not a group (auto, se3, sim3)")),
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -172,6 +211,23 @@ fn main() -> ExitCode {
             format,
             (no_prior, min_score),
             plot.as_deref(),
+        ),
+        Command::Correct {
+            a,
+            output,
+            json,
+            loops,
+            g2o,
+            plot,
+            format,
+            group,
+        } => run_correct(
+            &a,
+            &output,
+            json,
+            (loops.as_deref(), g2o.as_deref(), plot.as_deref()),
+            format,
+            group,
         ),
         Command::Merge {
             a,
@@ -423,6 +479,97 @@ fn run_loops(
     } else {
         writeln!(std::io::stdout(), "{} ({} poses)", a.display(), ta.len())?;
         print_table(&loops, "query", "match")
+    }
+}
+
+fn run_correct(
+    a: &Path,
+    output: &Path,
+    json: bool,
+    (loops_file, g2o, plot): (Option<&Path>, Option<&Path>, Option<&Path>),
+    format: Format,
+    group: turnprint::correct::Group,
+) -> Result<(), Failure> {
+    use turnprint::correct::{self, CorrectConfig, LoopClosure};
+    let started = std::time::Instant::now();
+    let progress = Progress::new();
+    progress.stage("reading");
+    let ta = read(a, format)?;
+    let config = CorrectConfig {
+        group,
+        ..CorrectConfig::default()
+    };
+    let loops = match loops_file {
+        Some(file) => {
+            let text =
+                std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+            LoopClosure::from_json(&ta, &text, &file.display().to_string())
+                .map_err(|e| e.to_string())?
+        }
+        None => {
+            progress.stage("preparing (plane, track, signature, segments)");
+            let pa = prepare(&ta, &config.loops)?;
+            progress.stage("searching loops");
+            pipeline::find_loops_prepared(&pa, &config.loops)
+                .iter()
+                .map(|h| LoopClosure::from_hypothesis(&ta, h))
+                .collect::<turnprint::Result<Vec<_>>>()
+                .map_err(|e| e.to_string())?
+        }
+    };
+    progress.stage("optimising the pose graph");
+    let corrected = correct::correct_with_loops(&ta, &loops, &config).map_err(|e| e.to_string())?;
+    drop(progress);
+    let out = corrected.trajectory(output.display().to_string());
+    write_tum(output, &out).map_err(|e| e.to_string())?;
+    if let Some(file) = g2o {
+        std::fs::write(file, correct::g2o::to_g2o(&corrected.graph))
+            .map_err(|e| format!("{}: {e}", file.display()))?;
+    }
+    if let Some(fig) = plot {
+        let marks: Vec<_> = corrected
+            .loops
+            .iter()
+            .map(|l| (l.closure.query_range, l.closure.match_range, l.kept))
+            .collect();
+        turnprint::plot::plot_correction(fig, &ta.positions(), &out.positions(), &marks)
+            .map_err(|e| e.to_string())?;
+    }
+    let kept = corrected.kept();
+    let seconds = started.elapsed().as_secs_f64();
+    if json {
+        let entries: Vec<serde_json::Value> = corrected
+            .loops
+            .iter()
+            .map(|l| {
+                let c = &l.closure;
+                json!({
+                    "query_range": c.query_range, "match_range": c.match_range,
+                    "score": c.score, "reversed": c.reversed, "kept": l.kept,
+                    "residual": if l.residual.is_finite() { json!(l.residual) } else { json!(null) },
+                })
+            })
+            .collect();
+        let out = json!({
+            "path": a.display().to_string(), "poses": ta.len(),
+            "group": corrected.group.name(),
+            "kept": kept, "rejected": corrected.loops.len() - kept,
+            "loops": entries, "seconds": seconds,
+        });
+        print_json(&out)
+    } else {
+        writeln!(
+            std::io::stdout(),
+            "{} ({} poses): {} loops kept, {} rejected ({} graph, {:.2} s); corrected path in {}",
+            a.display(),
+            ta.len(),
+            kept,
+            corrected.loops.len() - kept,
+            corrected.group.name(),
+            seconds,
+            output.display()
+        )?;
+        Ok(())
     }
 }
 

@@ -5,6 +5,7 @@
 //! nearest-earlier-position baseline. Results are Markdown tables or JSON.
 
 pub mod ambiguity;
+pub mod ape;
 pub mod auc;
 pub mod baseline;
 pub mod checks;

@@ -211,6 +211,21 @@ impl Similarity3 {
         })
     }
 
+    /// Least-squares rigid transform (`s = 1`) with `dst_i ~ R src_i + t`:
+    /// the rotation of [`Similarity3::fit`] with the scale held at 1, so
+    /// `t = mean(dst) - R mean(src)` (Umeyama 1991 without scale).
+    pub fn fit_rigid(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<Self> {
+        let s = Self::fit(src, dst)?;
+        let n = src.len() as f64;
+        let mu_src = src.iter().sum::<Vector3<f64>>() / n;
+        let mu_dst = dst.iter().sum::<Vector3<f64>>() / n;
+        Some(Similarity3 {
+            scale: 1.0,
+            rotation: s.rotation,
+            translation: mu_dst - s.rotation * mu_src,
+        })
+    }
+
     /// Angle in radians of the rotation taking `other`'s to this one's.
     pub fn angle_to(&self, other: &Similarity3) -> f64 {
         angle_between(&self.rotation, &other.rotation)

@@ -1,0 +1,207 @@
+//! Drift correction on every real odometry estimate of KITTI in the shared
+//! data, and on the ground truth itself (do no harm): APE before and after
+//! `turnprint::correct`, as evo computes it (SE(3) Umeyama for metric
+//! estimates, Sim(3) for monocular ones), with the loops kept and rejected
+//! and the time taken (EVALUATION.md, "Drift correction").
+//!
+//! Usage: `cargo run --release --example evaluate_correct -- [FILTER]`
+//! (data from ../shared/data, or `DATA=dir`); FILTER keeps the rows whose
+//! estimate name contains it.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use turnprint::correct::{correct, CorrectConfig};
+use turnprint::eval::ape::{ape, Alignment};
+use turnprint::io::{read_trajectory, Format};
+use turnprint::Trajectory;
+
+/// The shared data, relative to the project root (`DATA=dir` to change).
+fn data_dir() -> PathBuf {
+    PathBuf::from(std::env::var("DATA").unwrap_or_else(|_| "../shared/data".into()))
+}
+
+/// One estimate of one sequence, paired pose by pose with the truth.
+struct Case {
+    name: String,
+    seq: String,
+    path: PathBuf,
+    format: Format,
+    alignment: Alignment,
+}
+
+const SEQS: [&str; 7] = ["00", "02", "05", "06", "07", "08", "09"];
+
+fn cases(dir: &Path) -> Vec<Case> {
+    let mut out = Vec::new();
+    let mut add = |name: &str, seq: &str, path: PathBuf, format: Format, alignment| {
+        if path.is_file() {
+            out.push(Case {
+                name: name.into(),
+                seq: seq.into(),
+                path,
+                format,
+                alignment,
+            });
+        }
+    };
+    for seq in SEQS {
+        let gt = dir.join("kitti_gt").join(format!("{seq}.txt"));
+        add("ground truth", seq, gt, Format::Kitti, Alignment::Se3);
+        let odo = dir.join("odometry");
+        for (name, sub) in [
+            (
+                "MULLS without loop closure",
+                "kitti_mulls_dso/mulls_no_loop",
+            ),
+            ("MULLS with loop closure", "kitti_mulls_dso/mulls_with_loop"),
+            ("A-LOAM", "kitti_aloam"),
+            ("LiDAR GICP", "kitti_cvo_lidar/lidar_gicp"),
+            ("LiDAR NDT", "kitti_cvo_lidar/lidar_ndt"),
+            ("DSO (metric)", "kitti_mulls_dso/dso"),
+        ] {
+            add(
+                name,
+                seq,
+                odo.join(sub).join(format!("{seq}.txt")),
+                Format::Kitti,
+                Alignment::Se3,
+            );
+        }
+        add(
+            "LiDAR CVO",
+            seq,
+            odo.join("kitti_cvo_lidar/lidar_cvo_geometric")
+                .join(format!("acvo_geometric_{seq}.txt")),
+            Format::Kitti,
+            Alignment::Se3,
+        );
+        add(
+            "ORB-SLAM2 monocular",
+            seq,
+            dir.join("kitti_orbslam2_vio")
+                .join(format!("{seq}_orbslam2_tum.txt")),
+            Format::Tum,
+            Alignment::Sim3,
+        );
+    }
+    add(
+        "S-PTAM stereo",
+        "00",
+        dir.join("evo/KITTI_00_SPTAM.txt"),
+        Format::Kitti,
+        Alignment::Se3,
+    );
+    add(
+        "ORB-SLAM stereo (loop-closed)",
+        "00",
+        dir.join("evo/KITTI_00_ORB.txt"),
+        Format::Kitti,
+        Alignment::Se3,
+    );
+    out
+}
+
+/// Ground-truth index of each pose: by order for one pose per frame, else
+/// by timestamp (within 20 ms of a frame time).
+fn pairing(t: &Trajectory, gt_len: usize, times: &[f64]) -> Option<Vec<usize>> {
+    if t.len() == gt_len {
+        return Some((0..gt_len).collect());
+    }
+    t.poses
+        .iter()
+        .map(|p| {
+            let t = p.t?;
+            let k = times.partition_point(|x| *x < t);
+            [k.saturating_sub(1), k.min(times.len().checked_sub(1)?)]
+                .into_iter()
+                .min_by(|a, b| (times[*a] - t).abs().total_cmp(&(times[*b] - t).abs()))
+                .filter(|j| (times[*j] - t).abs() < 0.02)
+        })
+        .collect()
+}
+
+fn main() {
+    let dir = data_dir();
+    let filter = std::env::args().nth(1).unwrap_or_default();
+    println!("| estimate | seq | poses | APE before | APE after | after / before | loops kept / rejected | graph | s |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for case in cases(&dir).into_iter().filter(|c| c.name.contains(&filter)) {
+        let gt = read_trajectory(
+            &dir.join("kitti_gt").join(format!("{}.txt", case.seq)),
+            Format::Kitti,
+        )
+        .expect("ground truth");
+        let times: Vec<f64> =
+            std::fs::read_to_string(dir.join("kitti_gt").join(format!("{}_times.txt", case.seq)))
+                .map(|s| s.lines().filter_map(|l| l.trim().parse().ok()).collect())
+                .unwrap_or_default();
+        let est = match read_trajectory(&case.path, case.format) {
+            Ok(t) => t,
+            Err(e) => {
+                println!("| {} | {} | unreadable: {e} |", case.name, case.seq);
+                continue;
+            }
+        };
+        let Some(pairs) = pairing(&est, gt.len(), &times) else {
+            println!(
+                "| {} | {} | {} | not paired with the truth | | | | | |",
+                case.name,
+                case.seq,
+                est.len()
+            );
+            continue;
+        };
+        let truth: Vec<Vector3<f64>> = pairs.iter().map(|&j| gt.poses[j].position).collect();
+        let started = Instant::now();
+        let corrected = match correct(&est, &CorrectConfig::default()) {
+            Ok(c) => c,
+            Err(e) => {
+                println!(
+                    "| {} | {} | {} | failed: {e} |",
+                    case.name,
+                    case.seq,
+                    est.len()
+                );
+                continue;
+            }
+        };
+        let seconds = started.elapsed().as_secs_f64();
+        let before = ape(&est.positions(), &truth, case.alignment).map_or(f64::NAN, |s| s.rmse);
+        let after_positions: Vec<_> = corrected.poses.iter().map(|p| p.position).collect();
+        let after = ape(&after_positions, &truth, case.alignment).map_or(f64::NAN, |s| s.rmse);
+        if std::env::var("VERBOSE").is_ok() {
+            for l in &corrected.loops {
+                let c = &l.closure;
+                // Median true distance from the query poses to the match range.
+                let mut d: Vec<f64> = (c.query_range[0]..=c.query_range[1])
+                    .map(|i| {
+                        (c.match_range[0]..=c.match_range[1])
+                            .map(|j| (truth[i] - truth[j]).norm())
+                            .fold(f64::INFINITY, f64::min)
+                    })
+                    .collect();
+                d.sort_by(f64::total_cmp);
+                eprintln!(
+                    "  q {:?} m {:?} score {:.2} scale {:.3} rmse {:.2} residual {:.1} kept {} true dist {:.1} m",
+                    c.query_range, c.match_range, c.score, c.query_T_match.scale, c.rmse, l.residual, l.kept, d[d.len() / 2]
+                );
+            }
+        }
+        let kept = corrected.kept();
+        println!(
+            "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {} / {} | {} | {:.2} |",
+            case.name,
+            case.seq,
+            est.len(),
+            before,
+            after,
+            after / before,
+            kept,
+            corrected.loops.len() - kept,
+            corrected.group.name(),
+            seconds
+        );
+    }
+}

@@ -1,0 +1,190 @@
+//! Settings of drift correction, grouped by stage. Every tolerance is a
+//! ratio, a fraction of a length or an angle: none is in metres.
+
+use super::loops::LoopClosure;
+use crate::pipeline::Config;
+
+/// Which group the nodes live in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Group {
+    /// Decide from the loops: Sim(3) when their median scale, weighted by
+    /// score, is off by more than [`Group::SCALE_DRIFT`], else SE(3). The
+    /// weights keep the many weak look-alikes of a search, whose scales
+    /// scatter both ways, from outvoting its few strong revisits.
+    Auto,
+    /// Rigid poses: metric odometry (stereo, LiDAR, wheels, VIO).
+    Se3,
+    /// Poses with a scale: monocular odometry, whose scale drifts.
+    Sim3,
+}
+
+impl Group {
+    /// |ln scale| of the loops' median above which scale is taken to drift.
+    /// A metric odometry's revisits fit within about 1 % of scale (KITTI
+    /// LiDAR and stereo estimates: median under 0.01); a monocular one's
+    /// pass twice through the same road 10-50 % apart.
+    pub const SCALE_DRIFT: f64 = 0.05;
+
+    /// The concrete group for these loops.
+    pub fn resolve(self, loops: &[LoopClosure]) -> Group {
+        match self {
+            Group::Auto => {
+                let mut s: Vec<(f64, f64)> = loops
+                    .iter()
+                    .map(|l| (l.query_T_match.scale.ln().abs(), l.score.max(0.0)))
+                    .collect();
+                s.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let total: f64 = s.iter().map(|x| x.1).sum();
+                let mut acc = 0.0;
+                let median = s
+                    .iter()
+                    .find(|x| {
+                        acc += x.1;
+                        acc >= 0.5 * total
+                    })
+                    .map(|x| x.0);
+                // With no score at all, the plain median.
+                let median = if total > 0.0 {
+                    median
+                } else {
+                    s.get(s.len() / 2).map(|x| x.0)
+                };
+                if median.is_some_and(|m| m > Self::SCALE_DRIFT) {
+                    Group::Sim3
+                } else {
+                    Group::Se3
+                }
+            }
+            g => g,
+        }
+    }
+
+    /// Name in reports and g2o files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Group::Auto => "auto",
+            Group::Se3 => "SE3",
+            Group::Sim3 => "Sim3",
+        }
+    }
+}
+
+/// Odometry noise as a random walk over the whole path: an edge of length
+/// `d` on a path of length `L` gets variances that sum, over the path, to the
+/// totals below, whatever the keyframe spacing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OdometryNoise {
+    /// Translation drift over the whole path as a fraction of its length.
+    /// 2 %: KITTI's LiDAR and stereo odometry drift 0.5-3 %.
+    pub translation: f64,
+    /// Heading drift over the whole path (radians). 0.2 rad (11°) against
+    /// 2 % of translation: a correction bends the path (heading drift, the
+    /// usual cause of lost revisits) before it stretches it.
+    pub rotation: f64,
+    /// Drift of ln(scale) over the whole path (Sim(3) graphs). 0.5: monocular
+    /// estimates drift by tens of percent in scale along a drive.
+    pub log_scale: f64,
+}
+
+impl Default for OdometryNoise {
+    fn default() -> Self {
+        OdometryNoise {
+            translation: 0.02,
+            rotation: 0.2,
+            log_scale: 0.5,
+        }
+    }
+}
+
+impl OdometryNoise {
+    /// Sigmas of an edge of length `d` on a path of length `length`.
+    pub fn sigmas(&self, d: f64, length: f64) -> super::graph::Sigmas {
+        super::graph::Sigmas {
+            translation: self.translation * (d * length).sqrt(),
+            rotation: self.rotation * (d / length).sqrt(),
+            log_scale: self.log_scale * (d / length).sqrt(),
+        }
+    }
+}
+
+/// Loop noise from the loop's own misfit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopNoise {
+    /// Least translation sigma as a fraction of the loop's query length:
+    /// a loop fitted exactly (ground truth, one road twice in one lane)
+    /// still places its two passes only to about the width of a lane over a
+    /// stretch a hundred times as long.
+    pub floor: f64,
+    /// Rotation sigma = this times translation sigma over the query length:
+    /// a misfit `e` spread along a stretch of length `l` tilts a line fitted
+    /// through it by about `e / (l / 4)` (the lever of a uniform spread).
+    pub rotation_lever: f64,
+}
+
+impl Default for LoopNoise {
+    fn default() -> Self {
+        LoopNoise {
+            floor: 0.01,
+            rotation_lever: 4.0,
+        }
+    }
+}
+
+impl LoopNoise {
+    /// Sigmas of one of `edges` edges of a loop with misfit `rmse` over a
+    /// query stretch of length `length`. The loop counts as one measurement,
+    /// so each edge's variance is multiplied by the number of edges.
+    pub fn sigmas(&self, rmse: f64, length: f64, edges: usize) -> super::graph::Sigmas {
+        let t = rmse.max(self.floor * length);
+        let share = (edges.max(1) as f64).sqrt();
+        super::graph::Sigmas {
+            translation: t * share,
+            rotation: (self.rotation_lever * t / length).min(1.0) * share,
+            log_scale: (self.rotation_lever * t / length).min(1.0) * share,
+        }
+    }
+}
+
+/// Settings of `correct`.
+#[derive(Debug, Clone)]
+pub struct CorrectConfig {
+    // --- loops: the one loop search of `loops` and the online detector.
+    /// Loop search settings ([`Config::for_loops`]).
+    pub loops: Config,
+    // --- graph: at most 2000 nodes, SE(3) or Sim(3) from the loops.
+    /// Node group.
+    pub group: Group,
+    /// Keyframes at most; the other poses follow their keyframes. 2000
+    /// nodes solve in a few tens of milliseconds and space keyframes under
+    /// 0.05 % of the path apart.
+    pub max_nodes: usize,
+    /// Edges per loop: 5 spread over its query range tie the two passes
+    /// along their length, not at one point.
+    pub edges_per_loop: usize,
+    /// Odometry edge noise.
+    pub odometry: OdometryNoise,
+    /// Loop edge noise.
+    pub loop_noise: LoopNoise,
+    // --- robustness: a loop whose residual after optimisation exceeds 3
+    // of its sigmas is switched off.
+    /// Normalised residual (in the loop's sigmas) above which a loop is
+    /// rejected: 3, the usual three-sigma gate.
+    pub reject_above: f64,
+    /// Levenberg-Marquardt iterations per solve, at most.
+    pub max_iterations: usize,
+}
+
+impl Default for CorrectConfig {
+    fn default() -> Self {
+        CorrectConfig {
+            loops: Config::for_loops(),
+            group: Group::Auto,
+            max_nodes: 2000,
+            edges_per_loop: 5,
+            odometry: OdometryNoise::default(),
+            loop_noise: LoopNoise::default(),
+            reject_above: 3.0,
+            max_iterations: 50,
+        }
+    }
+}

@@ -1,0 +1,255 @@
+//! The pose graph of one path: keyframe nodes, odometry edges between
+//! consecutive keyframes, loop edges from loop closures.
+//!
+//! A node is the pose `world_T_node` of one keyframe. An edge `from -> to`
+//! measures `from_T_to = world_T_from⁻¹ · world_T_to`. A loop that says "the
+//! match part, moved by `query_T_match`, lies on the query part" becomes, for
+//! a query keyframe `i` and the match keyframe `j` it lands on,
+//!
+//! ```text
+//! j_T_i = world_T_j⁻¹ · match_T_query · world_T_i,   match_T_query = query_T_match⁻¹
+//! ```
+//!
+//! because the drift that `query_T_match` undoes is the one between the two
+//! passes: where the path is right, `i` and `j` are at the same place and
+//! `j_T_i` is their true relative pose.
+
+use super::config::{CorrectConfig, Group};
+use super::loops::LoopClosure;
+use crate::geometry::plane::Plane;
+use crate::geometry::Similarity3;
+use crate::trajectory::Trajectory;
+use crate::{Error, Result};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+/// Standard deviations of one edge, in its `from` node's units and radians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sigmas {
+    /// Translation, each axis.
+    pub translation: f64,
+    /// Rotation, each axis (radians).
+    pub rotation: f64,
+    /// Natural log of the scale (Sim(3) graphs only).
+    pub log_scale: f64,
+}
+
+/// One relative-pose measurement between two nodes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Edge {
+    /// Node the measurement is expressed in.
+    pub from: usize,
+    /// Node measured.
+    pub to: usize,
+    /// `from_T_to` as measured (scale 1 in an SE(3) graph).
+    pub from_T_to: Similarity3,
+    /// Its uncertainty.
+    pub sigmas: Sigmas,
+    /// Index of the loop closure this edge comes from; `None` for odometry.
+    pub loop_id: Option<usize>,
+}
+
+/// Nodes and edges of one path's graph, before optimisation.
+#[derive(Debug, Clone)]
+pub struct PoseGraph {
+    /// Pose index of each node, increasing; the first and last pose are nodes.
+    pub keyframes: Vec<usize>,
+    /// `world_T_node` of each node as the path has it (scale 1).
+    pub poses: Vec<Similarity3>,
+    /// Odometry edges first (node k to k + 1), then loop edges.
+    pub edges: Vec<Edge>,
+    /// Sim(3) nodes (scale drifts) or SE(3).
+    pub group: Group,
+}
+
+impl PoseGraph {
+    /// Builds the graph of `path` with the given loop closures.
+    ///
+    /// Loops whose ranges hold no keyframe are left without edges (their
+    /// verdict is then "rejected: no keyframe").
+    pub fn build(path: &Trajectory, loops: &[LoopClosure], config: &CorrectConfig) -> Result<Self> {
+        let n = path.len();
+        if n < 2 {
+            return Err(Error::input(
+                &path.source,
+                format!("{n} poses: a pose graph needs at least 2"),
+            ));
+        }
+        let positions = path.positions();
+        if let Some(i) = positions
+            .iter()
+            .position(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(Error::input(
+                &path.source,
+                format!("pose {i} is not finite"),
+            ));
+        }
+        let arc = arc_length(&positions);
+        let length = arc[n - 1];
+        if length.is_nan() || length <= 0.0 {
+            return Err(Error::input(
+                &path.source,
+                "the path never moves: nothing to correct",
+            ));
+        }
+        let world_R_body = orientations(path);
+        let stride = n.div_ceil(config.max_nodes.max(2));
+        let mut keyframes: Vec<usize> = (0..n).step_by(stride.max(1)).collect();
+        if *keyframes.last().unwrap_or(&0) != n - 1 {
+            keyframes.push(n - 1);
+        }
+        let poses: Vec<Similarity3> = keyframes
+            .iter()
+            .map(|&k| Similarity3 {
+                scale: 1.0,
+                rotation: world_R_body[k],
+                translation: positions[k],
+            })
+            .collect();
+        let group = config.group.resolve(loops);
+        let mut edges = Vec::with_capacity(keyframes.len() + loops.len() * config.edges_per_loop);
+        // Stationary stretches give zero steps: a tenth of the mean step keeps
+        // their information finite without letting them bend the path.
+        let floor = 0.1 * length / (n - 1) as f64;
+        for k in 0..keyframes.len() - 1 {
+            let d = (arc[keyframes[k + 1]] - arc[keyframes[k]]).max(floor);
+            let between = poses[k].inverse().compose(&poses[k + 1]);
+            edges.push(Edge {
+                from: k,
+                to: k + 1,
+                from_T_to: between,
+                sigmas: config.odometry.sigmas(d, length),
+                loop_id: None,
+            });
+        }
+        for (id, l) in loops.iter().enumerate() {
+            edges.extend(loop_edges(&keyframes, &poses, &arc, l, id, group, config));
+        }
+        Ok(PoseGraph {
+            keyframes,
+            poses,
+            edges,
+            group,
+        })
+    }
+
+    /// The loop edges of loop `id`.
+    pub fn loop_edges(&self, id: usize) -> impl Iterator<Item = &Edge> {
+        self.edges.iter().filter(move |e| e.loop_id == Some(id))
+    }
+}
+
+/// Edges of one loop: up to `edges_per_loop` query keyframes spread over the
+/// query range, each tied to the match keyframe its point lands nearest to.
+fn loop_edges(
+    keyframes: &[usize],
+    poses: &[Similarity3],
+    arc: &[f64],
+    l: &LoopClosure,
+    id: usize,
+    group: Group,
+    config: &CorrectConfig,
+) -> Vec<Edge> {
+    let nodes_in = |r: [usize; 2]| -> Vec<usize> {
+        (0..keyframes.len())
+            .filter(|&k| keyframes[k] >= r[0] && keyframes[k] <= r[1])
+            .collect()
+    };
+    let (query, matched) = (nodes_in(l.query_range), nodes_in(l.match_range));
+    if query.is_empty() || matched.is_empty() {
+        return Vec::new();
+    }
+    let match_T_query = l.query_T_match.inverse();
+    let picks = config.edges_per_loop.clamp(1, query.len());
+    let chosen: Vec<usize> = (0..picks)
+        .map(|q| query[(q * (query.len() - 1)) / (picks - 1).max(1)])
+        .collect();
+    let length = (arc[l.query_range[1]] - arc[l.query_range[0]]).max(f64::EPSILON);
+    let sigmas = config.loop_noise.sigmas(l.rmse, length, picks);
+    chosen
+        .into_iter()
+        .filter_map(|i| {
+            let target = match_T_query.apply(&poses[i].translation);
+            let j = *matched.iter().min_by(|&&a, &&b| {
+                (poses[a].translation - target)
+                    .norm_squared()
+                    .total_cmp(&(poses[b].translation - target).norm_squared())
+            })?;
+            if i == j {
+                return None;
+            }
+            let mut j_T_i = poses[j]
+                .inverse()
+                .compose(&match_T_query)
+                .compose(&poses[i]);
+            if group == Group::Se3 {
+                j_T_i.scale = 1.0;
+            }
+            Some(Edge {
+                from: j,
+                to: i,
+                from_T_to: j_T_i,
+                sigmas,
+                loop_id: Some(id),
+            })
+        })
+        .collect()
+}
+
+/// Cumulative arc length at each pose.
+pub fn arc_length(positions: &[Vector3<f64>]) -> Vec<f64> {
+    let mut s = Vec::with_capacity(positions.len());
+    let mut acc = 0.0;
+    for (i, p) in positions.iter().enumerate() {
+        if i > 0 {
+            acc += (p - positions[i - 1]).norm();
+        }
+        s.push(acc);
+    }
+    s
+}
+
+/// `world_R_body` of every pose: the path's own where it has them, else a
+/// frame along the direction of travel (x forward, z the normal of the
+/// path's best-fit plane), held through stationary stretches.
+pub fn orientations(path: &Trajectory) -> Vec<Matrix3<f64>> {
+    if path.poses.iter().all(|p| p.orientation.is_some()) {
+        return path
+            .poses
+            .iter()
+            .map(|p| {
+                p.orientation
+                    .map(|q| *q.to_rotation_matrix().matrix())
+                    .unwrap_or_default()
+            })
+            .collect();
+    }
+    let positions = path.positions();
+    let n = positions.len();
+    let up = Plane::fit(&positions).world_R_plane.column(2).into_owned();
+    let mut out: Vec<Option<Matrix3<f64>>> = vec![None; n];
+    for (i, slot) in out.iter_mut().enumerate() {
+        let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+        let forward = positions[b] - positions[a];
+        let forward = forward - up * up.dot(&forward);
+        if forward.norm() > 0.0 {
+            let x = forward.normalize();
+            let y = up.cross(&x);
+            *slot = Some(Matrix3::from_columns(&[x, y, up]));
+        }
+    }
+    let first = out
+        .iter()
+        .flatten()
+        .next()
+        .copied()
+        .unwrap_or_else(Matrix3::identity);
+    let mut last = first;
+    out.into_iter()
+        .map(|r| {
+            last = r.unwrap_or(last);
+            // Re-orthonormalise: the rows above are exact up to rounding.
+            *Rotation3::from_matrix(&last).matrix()
+        })
+        .collect()
+}

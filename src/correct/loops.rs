@@ -1,0 +1,222 @@
+//! Loop closures as the pose graph takes them: two pose ranges of one path
+//! and the similarity between them, from the loop search or from a file.
+
+use super::graph::arc_length;
+use crate::geometry::Similarity3;
+use crate::hypothesis::Hypothesis;
+use crate::trajectory::Trajectory;
+use crate::{Error, Result};
+use nalgebra::{Matrix3, Vector3};
+
+/// "Poses `match_range`, moved by `query_T_match`, lie on `query_range`."
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopClosure {
+    /// Inclusive pose range of the later pass.
+    pub query_range: [usize; 2],
+    /// Inclusive pose range of the earlier pass.
+    pub match_range: [usize; 2],
+    /// Maps points of the match range onto the query range.
+    pub query_T_match: Similarity3,
+    /// RMS distance (path units) between the query poses and the moved
+    /// match part: the loop's own misfit, its noise in the graph.
+    pub rmse: f64,
+    /// Score of the search, or of the file (1 when it gives none).
+    pub score: f64,
+    /// The match range is travelled the other way.
+    pub reversed: bool,
+}
+
+impl LoopClosure {
+    /// A loop of `path` from its ranges and, if known, its similarity
+    /// (otherwise fitted to the two ranges paired along their arc length,
+    /// reversed when `reversed`). Ranges outside the path are an error.
+    pub fn new(
+        path: &Trajectory,
+        query_range: [usize; 2],
+        match_range: [usize; 2],
+        query_T_match: Option<Similarity3>,
+        score: f64,
+        reversed: bool,
+    ) -> Result<Self> {
+        let n = path.len();
+        for (name, r) in [("query_range", query_range), ("match_range", match_range)] {
+            if r[0] > r[1] || r[1] >= n {
+                return Err(Error::input(
+                    &path.source,
+                    format!(
+                        "loop {name} [{}, {}] outside the path's {n} poses",
+                        r[0], r[1]
+                    ),
+                ));
+            }
+        }
+        let positions = path.positions();
+        let query = &positions[query_range[0]..=query_range[1]];
+        let matched = &positions[match_range[0]..=match_range[1]];
+        let sim = match query_T_match {
+            Some(s) if s.scale > 0.0 && s.scale.is_finite() => s,
+            Some(_) => {
+                return Err(Error::input(
+                    &path.source,
+                    "loop similarity has a scale that is not positive and finite",
+                ))
+            }
+            None => fit_ranges(query, matched, reversed).ok_or_else(|| {
+                Error::input(
+                    &path.source,
+                    format!(
+                        "loop [{}, {}] / [{}, {}]: no similarity fits (a range is a single point)",
+                        query_range[0], query_range[1], match_range[0], match_range[1]
+                    ),
+                )
+            })?,
+        };
+        Ok(LoopClosure {
+            query_range,
+            match_range,
+            query_T_match: sim,
+            rmse: misfit(query, matched, &sim),
+            score,
+            reversed,
+        })
+    }
+
+    /// The loop of a search hypothesis (`a` the query, `b` the match part).
+    pub fn from_hypothesis(path: &Trajectory, h: &Hypothesis) -> Result<Self> {
+        Self::new(
+            path,
+            h.a_range,
+            h.b_range,
+            Some(h.similarity()),
+            h.score,
+            h.reversed,
+        )
+    }
+
+    /// Loops from the object `loops --json` prints (`loops` entries with
+    /// `query_range`, `match_range` and optionally `scale`, `rotation`,
+    /// `translation`, `score`, `reversed`).
+    pub fn from_json(path: &Trajectory, text: &str, source: &str) -> Result<Vec<Self>> {
+        let bad = |m: String| Error::input(source, m);
+        let v: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| bad(format!("not JSON: {e}")))?;
+        let list = v
+            .get("loops")
+            .and_then(|l| l.as_array())
+            .ok_or_else(|| bad("no \"loops\" list".into()))?;
+        list.iter()
+            .enumerate()
+            .map(|(k, e)| {
+                let range = |key: &str| -> Result<[usize; 2]> {
+                    let r = e
+                        .get(key)
+                        .and_then(|r| r.as_array())
+                        .ok_or_else(|| bad(format!("loop {k}: no {key}")))?;
+                    match r.as_slice() {
+                        [a, b] => match (a.as_u64(), b.as_u64()) {
+                            (Some(a), Some(b)) => Ok([a as usize, b as usize]),
+                            _ => Err(bad(format!("loop {k}: {key} is not two pose indices"))),
+                        },
+                        _ => Err(bad(format!("loop {k}: {key} is not two pose indices"))),
+                    }
+                };
+                let sim = similarity(e).map_err(|m| bad(format!("loop {k}: {m}")))?;
+                let score = e.get("score").and_then(|s| s.as_f64()).unwrap_or(1.0);
+                let reversed = e.get("reversed").and_then(|s| s.as_bool()).unwrap_or(false);
+                Self::new(
+                    path,
+                    range("query_range")?,
+                    range("match_range")?,
+                    sim,
+                    score,
+                    reversed,
+                )
+                .map_err(|err| bad(format!("loop {k}: {err}")))
+            })
+            .collect()
+    }
+}
+
+/// The similarity of a JSON loop entry, `None` when it has none.
+fn similarity(e: &serde_json::Value) -> std::result::Result<Option<Similarity3>, String> {
+    let (Some(s), Some(r), Some(t)) = (e.get("scale"), e.get("rotation"), e.get("translation"))
+    else {
+        return Ok(None);
+    };
+    let num = |v: &serde_json::Value| v.as_f64().filter(|x| x.is_finite());
+    let scale = num(s).ok_or("scale is not a number")?;
+    let rows: Vec<Vec<f64>> = r
+        .as_array()
+        .map(|rows| {
+            rows.iter()
+                .filter_map(|row| row.as_array().map(|c| c.iter().filter_map(num).collect()))
+                .collect()
+        })
+        .unwrap_or_default();
+    if rows.len() != 3 || rows.iter().any(|r| r.len() != 3) {
+        return Err("rotation is not a 3x3 matrix".into());
+    }
+    let rotation = Matrix3::from_fn(|i, j| rows[i][j]);
+    if ((rotation * rotation.transpose()) - Matrix3::identity()).norm() > 1e-3
+        || rotation.determinant() < 0.0
+    {
+        return Err("rotation is not a rotation".into());
+    }
+    let t: Vec<f64> = t
+        .as_array()
+        .map(|c| c.iter().filter_map(num).collect())
+        .unwrap_or_default();
+    if t.len() != 3 {
+        return Err("translation is not 3 numbers".into());
+    }
+    Ok(Some(Similarity3 {
+        scale,
+        rotation,
+        translation: Vector3::new(t[0], t[1], t[2]),
+    }))
+}
+
+/// Similarity of `matched` onto `query`, pairing the two at equal fractions
+/// of their arc length.
+fn fit_ranges(
+    query: &[Vector3<f64>],
+    matched: &[Vector3<f64>],
+    reversed: bool,
+) -> Option<Similarity3> {
+    let (sq, sm) = (arc_length(query), arc_length(matched));
+    let (lq, lm) = (*sq.last()?, *sm.last()?);
+    if lq <= 0.0 || lm <= 0.0 {
+        return None;
+    }
+    let samples = 50.min(query.len().max(matched.len())).max(3);
+    let at = |p: &[Vector3<f64>], s: &[f64], f: f64| {
+        let target = f * s[s.len() - 1];
+        let k = s.partition_point(|&x| x < target).min(p.len() - 1);
+        p[k]
+    };
+    let (mut src, mut dst) = (Vec::new(), Vec::new());
+    for k in 0..samples {
+        let f = k as f64 / (samples - 1) as f64;
+        dst.push(at(query, &sq, f));
+        src.push(at(matched, &sm, if reversed { 1.0 - f } else { f }));
+    }
+    Similarity3::fit(&src, &dst)
+}
+
+/// RMS distance from each query pose (at most 64, evenly spread) to the
+/// nearest moved match pose.
+fn misfit(query: &[Vector3<f64>], matched: &[Vector3<f64>], query_T_match: &Similarity3) -> f64 {
+    let moved: Vec<Vector3<f64>> = matched.iter().map(|p| query_T_match.apply(p)).collect();
+    let step = query.len().div_ceil(64).max(1);
+    let d2: Vec<f64> = query
+        .iter()
+        .step_by(step)
+        .map(|q| {
+            moved
+                .iter()
+                .map(|m| (m - q).norm_squared())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    (d2.iter().sum::<f64>() / d2.len().max(1) as f64).sqrt()
+}

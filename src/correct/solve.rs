@@ -1,0 +1,146 @@
+//! Optimisation of a [`PoseGraph`] with apex-solver: Levenberg-Marquardt on
+//! SE(3) or Sim(3) nodes, the first node held fixed, loop edges under
+//! dynamic covariance scaling so that a loop at odds with the rest pulls
+//! less while the graph is solved.
+
+use super::config::Group;
+use super::graph::{Edge, PoseGraph};
+use crate::geometry::Similarity3;
+use crate::{Error, Result};
+use apex_solver::core::loss_functions::{DcsLoss, LossFunction};
+use apex_solver::core::problem::Problem;
+use apex_solver::factors::pose::BetweenFactor;
+use apex_solver::manifold::se3::SE3;
+use apex_solver::manifold::sim3::Sim3;
+use apex_solver::optimizer::levenberg_marquardt::{LevenbergMarquardt, LevenbergMarquardtConfig};
+use apex_solver::{JacobianMode, ManifoldType, NoiseModel};
+use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+use nalgebra_apex as na;
+
+/// DCS's Φ: 1, the value of Agarwal et al. (2013) for graphs whitened by
+/// their information, as these are.
+const DCS_PHI: f64 = 1.0;
+
+/// The optimised `world_T_node` of every node, starting from `start`, using
+/// the odometry edges and the loop edges whose loop is in `active`.
+pub fn optimise(
+    graph: &PoseGraph,
+    start: &[Similarity3],
+    active: &[bool],
+    max_iterations: usize,
+) -> Result<Vec<Similarity3>> {
+    let mut problem = Problem::new(JacobianMode::Sparse);
+    let keys: Vec<_> = start
+        .iter()
+        .map(|p| match graph.group {
+            Group::Sim3 => problem.add_variable(ManifoldType::Sim3, params(p, true)),
+            _ => problem.add_variable(ManifoldType::SE3, params(p, false)),
+        })
+        .collect();
+    let dof = if graph.group == Group::Sim3 { 7 } else { 6 };
+    // The gauge: the path's first pose stays where it was.
+    for idx in 0..dof {
+        problem.fix_variable(keys[0], idx);
+    }
+    for e in &graph.edges {
+        if let Some(id) = e.loop_id {
+            if !active.get(id).copied().unwrap_or(false) {
+                continue;
+            }
+        }
+        let loss: Option<Box<dyn LossFunction + Send + Sync>> = match e.loop_id {
+            Some(_) => Some(Box::new(DcsLoss::new(DCS_PHI).map_err(solver_error)?)),
+            None => None,
+        };
+        let (factor, noise) = factor(e, graph.group)?;
+        problem
+            .try_add_residual_block_with_noise(&[keys[e.from], keys[e.to]], factor, loss, noise)
+            .map_err(solver_error)?;
+    }
+    let config = LevenbergMarquardtConfig::new()
+        .with_max_iterations(max_iterations)
+        .with_cost_tolerance(1e-9)
+        .with_parameter_tolerance(1e-9);
+    let result = LevenbergMarquardt::with_config(config)
+        .optimize(&mut problem)
+        .map_err(solver_error)?;
+    keys.iter()
+        .map(|k| {
+            let v = result
+                .parameters
+                .get(*k)
+                .ok_or_else(|| solver_error("a node is missing from the solution"))?;
+            Ok(from_params(v.as_param_slice()))
+        })
+        .collect()
+}
+
+fn solver_error(e: impl std::fmt::Display) -> Error {
+    Error::input("pose graph", format!("optimisation failed: {e}"))
+}
+
+type Factor = Box<dyn apex_solver::Factor + Send + Sync>;
+
+/// The between factor and whitening of one edge.
+fn factor(e: &Edge, group: Group) -> Result<(Factor, NoiseModel)> {
+    let s = e.sigmas;
+    let m = &e.from_T_to;
+    let q = apex_quaternion(m);
+    let t = na::Vector3::new(m.translation.x, m.translation.y, m.translation.z);
+    let (factor, sigmas): (Factor, Vec<f64>) = match group {
+        Group::Sim3 => (
+            Box::new(BetweenFactor::new(Sim3::new(t, q, m.scale))),
+            vec![
+                s.translation,
+                s.translation,
+                s.translation,
+                s.rotation,
+                s.rotation,
+                s.rotation,
+                s.log_scale,
+            ],
+        ),
+        _ => (
+            Box::new(BetweenFactor::new(SE3::new(t, q))),
+            vec![
+                s.translation,
+                s.translation,
+                s.translation,
+                s.rotation,
+                s.rotation,
+                s.rotation,
+            ],
+        ),
+    };
+    let noise = NoiseModel::from_sigmas(&sigmas).map_err(solver_error)?;
+    Ok((factor, noise))
+}
+
+fn quaternion(p: &Similarity3) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&p.rotation))
+}
+
+fn apex_quaternion(p: &Similarity3) -> na::UnitQuaternion<f64> {
+    let q = quaternion(p);
+    na::UnitQuaternion::new_unchecked(na::Quaternion::new(q.w, q.i, q.j, q.k))
+}
+
+/// apex-solver's parameters: `[t, qw, qx, qy, qz]` and, for Sim(3), `s`.
+fn params(p: &Similarity3, with_scale: bool) -> na::DVector<f64> {
+    let q = quaternion(p);
+    let t = p.translation;
+    let mut v = vec![t.x, t.y, t.z, q.w, q.i, q.j, q.k];
+    if with_scale {
+        v.push(p.scale);
+    }
+    na::DVector::from_vec(v)
+}
+
+fn from_params(v: &[f64]) -> Similarity3 {
+    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(v[3], v[4], v[5], v[6]));
+    Similarity3 {
+        scale: v.get(7).copied().unwrap_or(1.0),
+        rotation: *q.to_rotation_matrix().matrix(),
+        translation: Vector3::new(v[0], v[1], v[2]),
+    }
+}
