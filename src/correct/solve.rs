@@ -87,30 +87,14 @@ fn factor(e: &Edge, group: Group) -> Result<(Factor, NoiseModel)> {
     let m = &e.from_T_to;
     let q = apex_quaternion(m);
     let t = na::Vector3::new(m.translation.x, m.translation.y, m.translation.z);
-    let (factor, sigmas): (Factor, Vec<f64>) = match group {
-        Group::Sim3 => (
-            Box::new(BetweenFactor::new(Sim3::new(t, q, m.scale))),
-            vec![
-                s.translation,
-                s.translation,
-                s.translation,
-                s.rotation,
-                s.rotation,
-                s.rotation,
-                s.log_scale,
-            ],
-        ),
-        _ => (
-            Box::new(BetweenFactor::new(SE3::new(t, q))),
-            vec![
-                s.translation,
-                s.translation,
-                s.translation,
-                s.rotation,
-                s.rotation,
-                s.rotation,
-            ],
-        ),
+    let mut sigmas = vec![s.translation; 3];
+    sigmas.extend([s.rotation; 3]);
+    let factor: Factor = match group {
+        Group::Sim3 => {
+            sigmas.push(s.log_scale);
+            Box::new(BetweenFactor::new(Sim3::new(t, q, m.scale)))
+        }
+        _ => Box::new(BetweenFactor::new(SE3::new(t, q))),
     };
     let noise = NoiseModel::from_sigmas(&sigmas).map_err(solver_error)?;
     Ok((factor, noise))
