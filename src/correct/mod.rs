@@ -4,16 +4,20 @@
 //! ```text
 //! path -> loop search (pipeline::find_loops, as `loops`) -> LoopClosure
 //!      -> PoseGraph (keyframes, odometry edges, loop edges)
-//!      -> solve (apex-solver, DCS on loops) -> residual gate -> re-solve
+//!      -> choice (apex-solver, DCS, residual gate, best loop first)
+//!      -> drift measured from the chosen loops -> final solve
 //!      -> every pose carried along by its keyframes
 //! ```
 //!
-//! Robustness is in two layers: dynamic covariance scaling keeps a wrong
-//! loop from dragging the solution while it is solved, and after each solve
-//! the loop whose edges miss by the most sigmas is switched off and the
-//! graph solved again, until every loop left fits within
-//! [`CorrectConfig::reject_above`] sigmas. A loop switched off that fits the
-//! final solution is switched back on.
+//! Loops are chosen under the odometry prior, an upper bound on drift:
+//! they enter best score first, each solved robustly (dynamic covariance
+//! scaling) from the solution before it and kept only if every kept loop
+//! still fits within [`CorrectConfig::reject_above`] sigmas. The chosen
+//! loops' misses against the uncorrected path then measure the drift the
+//! path has (a maximum-likelihood factor on the prior's sigmas), and the
+//! final solve, plain least squares with each loop trusted as far as its
+//! own misfit says, moves the path only as far as that drift allows: loops
+//! that show no drift beyond their own noise leave the path as it was.
 
 // Frame names as in Sophus: `a_T_b` maps points from b to a.
 #![allow(non_snake_case)]
@@ -91,47 +95,34 @@ pub fn correct_with_loops(
     loops: &[LoopClosure],
     config: &CorrectConfig,
 ) -> Result<Corrected> {
-    let graph = PoseGraph::build(path, loops, config)?;
+    // Choice: loops admitted under the odometry prior (an upper bound on
+    // drift) and the tolerant loop floor, robustly.
+    let prior = PoseGraph::build(path, loops, config)?;
+    let (chosen, _) = admit(&prior, loops, config)?;
+    // Measurement: the chosen loops' misses against the path say how much it
+    // drifts, with each loop trusted as far as its own misfit says. A loop
+    // that only reflects its own noise (a lane's offset on a path without
+    // drift) then leaves the odometry stiff and the path as it was.
+    let fit = CorrectConfig {
+        loop_noise: LoopNoise {
+            floor: config.loop_noise.fit_floor,
+            ..config.loop_noise
+        },
+        ..config.clone()
+    };
+    let k = drift_scale(&PoseGraph::build(path, loops, &fit)?, &chosen);
+    let graph = PoseGraph::build(
+        path,
+        loops,
+        &CorrectConfig {
+            odometry: config.odometry.scaled(k),
+            ..fit
+        },
+    )?;
+    let (active, solution) = settle(&graph, loops, chosen, config)?;
     let has_edges: Vec<bool> = (0..loops.len())
         .map(|id| graph.loop_edges(id).next().is_some())
         .collect();
-    // Loops enter best first, each solved from the solution of those before
-    // it: a true loop then starts near its fit, a wrong one far from it.
-    let mut order: Vec<usize> = (0..loops.len()).filter(|&id| has_edges[id]).collect();
-    order.sort_by(|&a, &b| loops[b].score.total_cmp(&loops[a].score));
-    let mut active = vec![false; loops.len()];
-    let mut solution = graph.poses.clone();
-    let mut rejected: Vec<usize> = Vec::new();
-    let mut accepted_since = vec![0usize; loops.len()];
-    let mut accepted = 0;
-    let admit =
-        |id: usize, active: &mut Vec<bool>, solution: &mut Vec<Similarity3>| -> Result<bool> {
-            let mut trial = active.clone();
-            trial[id] = true;
-            let next = solve::optimise(&graph, solution, &trial, config.max_iterations)?;
-            let fits = (0..loops.len())
-                .filter(|&k| trial[k])
-                .all(|k| residual(&graph, &next, k) <= config.reject_above);
-            if fits {
-                *active = trial;
-                *solution = next;
-            }
-            Ok(fits)
-        };
-    for &id in &order {
-        if admit(id, &mut active, &mut solution)? {
-            accepted += 1;
-        } else {
-            rejected.push(id);
-            accepted_since[id] = accepted;
-        }
-    }
-    // A loop turned away before later loops bent the path may fit now.
-    for &id in &rejected {
-        if accepted > accepted_since[id] {
-            admit(id, &mut active, &mut solution)?;
-        }
-    }
     let verdicts = loops
         .iter()
         .enumerate()
@@ -151,6 +142,133 @@ pub fn correct_with_loops(
         group: graph.group,
         graph,
     })
+}
+
+/// Loops admitted one at a time, best score first, each solved warm from
+/// the solution before it (a true loop then starts near its fit, a wrong
+/// one far from it) and kept only if every kept loop still fits; loops
+/// turned away are tried again once the others have bent the path.
+fn admit(
+    graph: &PoseGraph,
+    loops: &[LoopClosure],
+    config: &CorrectConfig,
+) -> Result<(Vec<bool>, Vec<Similarity3>)> {
+    let mut order: Vec<usize> = (0..loops.len())
+        .filter(|&id| graph.loop_edges(id).next().is_some())
+        .collect();
+    order.sort_by(|&a, &b| loops[b].score.total_cmp(&loops[a].score));
+    let mut active = vec![false; loops.len()];
+    let mut solution = graph.poses.clone();
+    let mut rejected: Vec<usize> = Vec::new();
+    let mut accepted_since = vec![0usize; loops.len()];
+    let mut accepted = 0;
+    let try_one =
+        |id: usize, active: &mut Vec<bool>, solution: &mut Vec<Similarity3>| -> Result<bool> {
+            let mut trial = active.clone();
+            trial[id] = true;
+            let next = solve::optimise(graph, solution, &trial, true, config.max_iterations)?;
+            let fits = (0..loops.len())
+                .filter(|&k| trial[k])
+                .all(|k| residual(graph, &next, k) <= config.reject_above);
+            if fits {
+                *active = trial;
+                *solution = next;
+            }
+            Ok(fits)
+        };
+    for &id in &order {
+        if try_one(id, &mut active, &mut solution)? {
+            accepted += 1;
+        } else {
+            rejected.push(id);
+            accepted_since[id] = accepted;
+        }
+    }
+    for &id in &rejected {
+        if accepted > accepted_since[id] {
+            try_one(id, &mut active, &mut solution)?;
+        }
+    }
+    Ok((active, solution))
+}
+
+/// The chosen loops solved by plain least squares under the measured
+/// odometry noise (the choice already turned the gross outliers away, and
+/// a robust loss would hold back a true loop that starts many of its sigmas
+/// off); the loop that misses by the most sigmas, if above the gate, is
+/// switched off and the graph solved again.
+fn settle(
+    graph: &PoseGraph,
+    loops: &[LoopClosure],
+    mut active: Vec<bool>,
+    config: &CorrectConfig,
+) -> Result<(Vec<bool>, Vec<Similarity3>)> {
+    loop {
+        if !active.iter().any(|a| *a) {
+            return Ok((active, graph.poses.clone()));
+        }
+        let solution = solve::optimise(graph, &graph.poses, &active, false, config.max_iterations)?;
+        let worst = (0..loops.len())
+            .filter(|&id| active[id])
+            .map(|id| (id, residual(graph, &solution, id)))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        match worst {
+            Some((id, r)) if r > config.reject_above => active[id] = false,
+            _ => return Ok((active, solution)),
+        }
+    }
+}
+
+/// Least drift scale searched: at a ten-thousandth of the prior's sigmas
+/// the odometry is rigid next to any loop, which is the answer when the
+/// loops show no drift beyond their own noise.
+const MIN_DRIFT_SCALE: f64 = 1e-4;
+
+/// Maximum-likelihood factor `k` in (0, 1] on the odometry prior's sigmas,
+/// from the loops in `active`: each loop's miss against the uncorrected
+/// path, `d` (its edges' mean squared translation miss), is modelled per
+/// axis as `k² V / 3 + σ²`, where `σ` is the loop's own sigma and `V` the
+/// prior's variance of the odometry chain between its two poses (the
+/// translation random walk plus the heading random walk's lever to the far
+/// pose). The likelihood `Σ -3/2 ln v - d / (2 v)` is maximised on a log grid
+/// of tenths of a decade; 1 when no loop is active.
+fn drift_scale(graph: &PoseGraph, active: &[bool]) -> f64 {
+    let mut samples: Vec<(f64, f64, f64)> = Vec::new();
+    for (id, _) in active.iter().enumerate().filter(|(_, &a)| a) {
+        let edges: Vec<&graph::Edge> = graph.loop_edges(id).collect();
+        let share2 = edges.len() as f64;
+        let (mut d, mut v, mut s) = (0.0, 0.0, 0.0);
+        for e in &edges {
+            let odo = graph.poses[e.from].inverse().compose(&graph.poses[e.to]);
+            d += (e.from_T_to.translation - odo.translation).norm_squared();
+            s += e.sigmas.translation.powi(2) / share2;
+            let far = graph.poses[e.to].translation;
+            let (a, b) = (e.from.min(e.to), e.from.max(e.to));
+            for o in &graph.edges[a..b] {
+                let lever = (far - graph.poses[o.from].translation).norm_squared();
+                v += 3.0 * o.sigmas.translation.powi(2) + 2.0 * o.sigmas.rotation.powi(2) * lever;
+            }
+        }
+        let n = edges.len().max(1) as f64;
+        samples.push((d / n, v / n, s / n));
+    }
+    if samples.is_empty() {
+        return 1.0;
+    }
+    let log_likelihood = |k: f64| -> f64 {
+        samples
+            .iter()
+            .map(|&(d, v, s)| {
+                let var = k * k * v / 3.0 + s;
+                -1.5 * var.ln() - d / (2.0 * var)
+            })
+            .sum()
+    };
+    let steps = (MIN_DRIFT_SCALE.log10().abs() * 10.0).round() as i32;
+    (0..=steps)
+        .map(|i| 10f64.powf(-(i as f64) / 10.0))
+        .max_by(|&a, &b| log_likelihood(a).total_cmp(&log_likelihood(b)))
+        .unwrap_or(1.0)
 }
 
 /// Median over the edges of loop `id` of the larger of the translation and

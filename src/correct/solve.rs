@@ -22,11 +22,13 @@ use nalgebra_apex as na;
 const DCS_PHI: f64 = 1.0;
 
 /// The optimised `world_T_node` of every node, starting from `start`, using
-/// the odometry edges and the loop edges whose loop is in `active`.
+/// the odometry edges and the loop edges whose loop is in `active`; loop
+/// edges under DCS when `robust`, plain least squares otherwise.
 pub fn optimise(
     graph: &PoseGraph,
     start: &[Similarity3],
     active: &[bool],
+    robust: bool,
     max_iterations: usize,
 ) -> Result<Vec<Similarity3>> {
     let mut problem = Problem::new(JacobianMode::Sparse);
@@ -49,8 +51,8 @@ pub fn optimise(
             }
         }
         let loss: Option<Box<dyn LossFunction + Send + Sync>> = match e.loop_id {
-            Some(_) => Some(Box::new(DcsLoss::new(DCS_PHI).map_err(solver_error)?)),
-            None => None,
+            Some(_) if robust => Some(Box::new(DcsLoss::new(DCS_PHI).map_err(solver_error)?)),
+            _ => None,
         };
         let (factor, noise) = factor(e, graph.group)?;
         problem
