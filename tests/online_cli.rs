@@ -15,6 +15,7 @@ fn stream_writes_candidates_then_a_summary() {
         Path::new("tests/data/00.txt"),
         Format::Auto,
         &OnlineConfig::default(),
+        None,
         &mut out,
     )
     .unwrap();
@@ -65,7 +66,14 @@ fn stream_names_the_file_on_bad_input() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.txt");
     std::fs::write(&bad, "0 0 0\n1 1 nan\n").unwrap();
-    let err = stream(&bad, Format::Xyz, &OnlineConfig::default(), &mut Vec::new()).unwrap_err();
+    let err = stream(
+        &bad,
+        Format::Xyz,
+        &OnlineConfig::default(),
+        None,
+        &mut Vec::new(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("bad.txt"), "{err}");
     let short = dir.path().join("short.txt");
     std::fs::write(&short, "0 0 0\n1 1 0\n").unwrap();
@@ -73,6 +81,7 @@ fn stream_names_the_file_on_bad_input() {
         &short,
         Format::Xyz,
         &OnlineConfig::default(),
+        None,
         &mut Vec::new(),
     )
     .unwrap_err();

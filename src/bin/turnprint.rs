@@ -123,6 +123,11 @@ enum Command {
     },
     /// Replays A one pose at a time through the online detector (JSON Lines).
     Stream {
+        /// Keep a drift-corrected path up to date as loops arrive (a
+        /// `corrected` event per re-optimisation) and write it here as TUM
+        /// at the end; with --verify only confirmed loops enter.
+        #[arg(long, value_name = "OUT")]
+        correct: Option<PathBuf>,
         /// The path; `-` reads poses from stdin as they arrive (a pipe from
         /// a running odometry process) and writes each event at once.
         a: PathBuf,
@@ -256,6 +261,7 @@ fn main() -> ExitCode {
             plot,
             no_drift_probe,
             workers,
+            correct,
         } => {
             let config = turnprint::online::OnlineConfig {
                 top_k: top,
@@ -277,7 +283,7 @@ fn main() -> ExitCode {
             } else if verify {
                 run_stream_verified(&a, &config, format, truth, &cameras, plot, json)
             } else {
-                run_stream(&a, &config, format)
+                run_stream(&a, &config, format, correct.as_deref())
             }
         }
     };
@@ -672,13 +678,14 @@ fn run_stream(
     a: &Path,
     config: &turnprint::online::OnlineConfig,
     format: Format,
+    correct: Option<&Path>,
 ) -> Result<(), Failure> {
     let mut out = std::io::stdout().lock();
     if a == Path::new("-") {
         let stdin = std::io::BufReader::new(std::io::stdin());
-        turnprint::online::cli::stream_lines(stdin, "<stdin>", format, config, &mut out)?;
+        turnprint::online::cli::stream_lines(stdin, "<stdin>", format, config, correct, &mut out)?;
     } else {
-        turnprint::online::cli::stream(a, format, config, &mut out)?;
+        turnprint::online::cli::stream(a, format, config, correct, &mut out)?;
     }
     Ok(())
 }

@@ -95,10 +95,24 @@ pub fn correct_with_loops(
     loops: &[LoopClosure],
     config: &CorrectConfig,
 ) -> Result<Corrected> {
+    correct_again(path, loops, &[], config)
+}
+
+/// [`correct_with_loops`] for a path that has grown since a correction
+/// that kept `kept` (by loop index; loops after them are new): the kept
+/// loops enter together in one solve, and only the new ones and those
+/// turned away before are tried one at a time (the online detector's
+/// re-optimisation).
+pub fn correct_again(
+    path: &Trajectory,
+    loops: &[LoopClosure],
+    kept: &[bool],
+    config: &CorrectConfig,
+) -> Result<Corrected> {
     // Choice: loops admitted under the odometry prior (an upper bound on
     // drift) and the tolerant loop floor, robustly.
     let prior = PoseGraph::build(path, loops, config)?;
-    let (chosen, _) = admit(&prior, loops, config)?;
+    let (chosen, _) = admit(&prior, loops, kept, config)?;
     // Measurement: the chosen loops' misses against the path say how much it
     // drifts, with each loop trusted as far as its own misfit says. A loop
     // that only reflects its own noise (a lane's offset on a path without
@@ -151,14 +165,30 @@ pub fn correct_with_loops(
 fn admit(
     graph: &PoseGraph,
     loops: &[LoopClosure],
+    kept: &[bool],
     config: &CorrectConfig,
 ) -> Result<(Vec<bool>, Vec<Similarity3>)> {
-    let mut order: Vec<usize> = (0..loops.len())
-        .filter(|&id| graph.loop_edges(id).next().is_some())
-        .collect();
-    order.sort_by(|&a, &b| loops[b].score.total_cmp(&loops[a].score));
+    let has_edges = |id: usize| graph.loop_edges(id).next().is_some();
     let mut active = vec![false; loops.len()];
     let mut solution = graph.poses.clone();
+    // Loops kept before enter together when they still fit together.
+    let before: Vec<bool> = (0..loops.len())
+        .map(|id| kept.get(id).copied().unwrap_or(false) && has_edges(id))
+        .collect();
+    if before.iter().any(|k| *k) {
+        let next = solve::optimise(graph, &solution, &before, true, config.max_iterations)?;
+        if (0..loops.len())
+            .filter(|&k| before[k])
+            .all(|k| residual(graph, &next, k) <= config.reject_above)
+        {
+            active = before;
+            solution = next;
+        }
+    }
+    let mut order: Vec<usize> = (0..loops.len())
+        .filter(|&id| has_edges(id) && !active[id])
+        .collect();
+    order.sort_by(|&a, &b| loops[b].score.total_cmp(&loops[a].score));
     let mut rejected: Vec<usize> = Vec::new();
     let mut accepted_since = vec![0usize; loops.len()];
     let mut accepted = 0;

@@ -23,11 +23,15 @@ use crate::{Error, Pose, Result};
 const IDLE_POLL: Duration = Duration::from_millis(20);
 
 /// Streams the trajectory at `path` and writes one JSON object per line
-/// to `out`: candidates as they come, then the summary.
+/// to `out`: candidates as they come, then the summary. With `correct`,
+/// every candidate also enters the drift correction, each re-optimisation
+/// is a `corrected` event, and the corrected path is written there as TUM
+/// at the end.
 pub fn stream(
     path: &Path,
     format: Format,
     config: &OnlineConfig,
+    correct: Option<&Path>,
     out: &mut dyn Write,
 ) -> Result<Summary> {
     let trajectory = read_trajectory(path, format)?;
@@ -35,23 +39,24 @@ pub fn stream(
     if trajectory.len() < MIN_POSES {
         return Err(too_few(&name, trajectory.len()));
     }
-    let mut detector = Detector::new(config.clone(), Overflow::Block);
+    let mut detector = detector(config, correct)?;
     for pose in &trajectory.poses {
         push(&mut detector, pose);
         write_events(&mut detector, out)?;
     }
-    finish(detector, &name, out)
+    finish(detector, &name, correct, out)
 }
 
 /// Streams the poses of `input`'s lines (named `name` in messages) as they
 /// arrive, in `format` (`auto`: detected from the first data line), and
 /// writes each event as soon as the detector has it; at the end of the
-/// input, the rest and the summary.
+/// input, the rest and the summary (`correct` as for [`stream`]).
 pub fn stream_lines(
     input: impl BufRead + Send + 'static,
     name: &str,
     format: Format,
     config: &OnlineConfig,
+    correct: Option<&Path>,
     out: &mut dyn Write,
 ) -> Result<Summary> {
     // A running odometry that loses track may write `nan`: the detector's
@@ -68,7 +73,7 @@ pub fn stream_lines(
             }
         }
     });
-    let mut detector = Detector::new(config.clone(), Overflow::Block);
+    let mut detector = detector(config, correct)?;
     let mut poses = 0;
     loop {
         match rx.recv_timeout(IDLE_POLL) {
@@ -92,7 +97,25 @@ pub fn stream_lines(
     if poses < MIN_POSES {
         return Err(too_few(name, poses));
     }
-    finish(detector, name, out)
+    finish(detector, name, correct, out)
+}
+
+/// The replay's detector, correcting drift when asked to.
+fn detector(config: &OnlineConfig, correct: Option<&Path>) -> Result<Detector> {
+    let detector = Detector::new(config.clone(), Overflow::Block);
+    match correct {
+        None => Ok(detector),
+        #[cfg(feature = "correct")]
+        Some(_) => Ok(detector.with_correction(
+            crate::correct::CorrectConfig::default(),
+            super::correction::LoopInput::Candidates,
+        )),
+        #[cfg(not(feature = "correct"))]
+        Some(p) => Err(Error::input(
+            &p.display().to_string(),
+            "stream --correct needs turnprint built with the `correct` feature",
+        )),
+    }
 }
 
 /// One pose into the detector (no keyframes: nothing is rendered).
@@ -125,15 +148,64 @@ fn write_events(detector: &mut Detector, out: &mut dyn Write) -> Result<()> {
     for e in detector.poll() {
         writeln!(out, "{}", e.to_json()).map_err(stdout_error)?;
     }
+    #[cfg(feature = "correct")]
+    for c in detector.poll_corrections() {
+        writeln!(out, "{}", corrected_json(&c, false)).map_err(stdout_error)?;
+    }
     Ok(())
 }
 
-/// Drains the detector, writes the rest and the summary line.
-fn finish(detector: Detector, name: &str, out: &mut dyn Write) -> Result<Summary> {
+/// The `corrected` event of one re-optimisation (`last`: the solve over the
+/// whole path at the end).
+#[cfg(feature = "correct")]
+fn corrected_json(c: &super::correction::Correction, last: bool) -> serde_json::Value {
+    json!({
+        "event": "corrected",
+        "poses": c.poses,
+        "loops": c.loops,
+        "kept": c.kept,
+        "largest_move": c.largest_move,
+        "seconds": c.seconds,
+        "final": last,
+    })
+}
+
+/// Drains the detector, writes the rest, the corrected path and the
+/// summary line.
+fn finish(
+    detector: Detector,
+    name: &str,
+    correct: Option<&Path>,
+    out: &mut dyn Write,
+) -> Result<Summary> {
+    let t0 = std::time::Instant::now();
+    #[cfg(feature = "correct")]
+    let (rest, summary, corrected) = detector.finish_corrected();
+    #[cfg(not(feature = "correct"))]
     let (rest, summary) = detector.finish();
     for e in rest {
         writeln!(out, "{}", e.to_json()).map_err(stdout_error)?;
     }
+    #[cfg(feature = "correct")]
+    if let (Some(file), Some(finished)) = (correct, corrected) {
+        for c in &finished.events {
+            writeln!(out, "{}", corrected_json(c, false)).map_err(stdout_error)?;
+        }
+        let c = finished
+            .corrected
+            .ok_or_else(|| Error::input(name, "the path cannot be corrected (it never moves)"))?;
+        let event = super::correction::Correction {
+            poses: c.poses.len(),
+            loops: c.loops.len(),
+            kept: c.kept(),
+            largest_move: 0.0,
+            seconds: t0.elapsed().as_secs_f64(),
+        };
+        crate::io::write_tum(file, &c.trajectory(file.display().to_string()))?;
+        writeln!(out, "{}", corrected_json(&event, true)).map_err(stdout_error)?;
+    }
+    #[cfg(not(feature = "correct"))]
+    let _ = (correct, t0);
     let mut s = serde_json::to_value(summary).unwrap_or_default();
     if let Some(o) = s.as_object_mut() {
         o.insert("event".into(), json!("summary"));

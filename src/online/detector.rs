@@ -118,6 +118,13 @@ pub struct Detector {
     flush_samples: usize,
     /// A send was deferred since the last one went through.
     merging: bool,
+    /// The drift correction's thread, when asked for.
+    #[cfg(feature = "correct")]
+    correction: Option<super::correction::Link>,
+    /// The last accepted pose and the rejected poses before the first, so
+    /// that the corrected path keeps one pose per pushed index.
+    #[cfg(feature = "correct")]
+    last_good: (Option<crate::Pose>, usize),
 }
 
 /// The caller's end of the worker.
@@ -177,6 +184,76 @@ impl Detector {
             emitted,
             flush_samples,
             merging: false,
+            #[cfg(feature = "correct")]
+            correction: None,
+            #[cfg(feature = "correct")]
+            last_good: (None, 0),
+        }
+    }
+
+    /// Keeps a drift-corrected estimate of the path up to date on a thread
+    /// of its own: each time loops arrive (every candidate, or only those
+    /// handed to [`Detector::close_loop`]) the pose graph of
+    /// [`crate::correct`] is solved again and a [`Correction`] event sent.
+    ///
+    /// [`Correction`]: super::correction::Correction
+    #[cfg(feature = "correct")]
+    pub fn with_correction(
+        mut self,
+        config: crate::correct::CorrectConfig,
+        input: super::correction::LoopInput,
+    ) -> Detector {
+        self.correction = Some(super::correction::Link::spawn(config, input));
+        self
+    }
+
+    /// A loop to enter the corrected estimate (a verifier's confirmed
+    /// candidate); ignored without [`Detector::with_correction`].
+    #[cfg(feature = "correct")]
+    pub fn close_loop(&self, h: &crate::Hypothesis) {
+        if let Some(c) = &self.correction {
+            c.close_loop(h);
+        }
+    }
+
+    /// The corrected pose of pushed pose `i` (see
+    /// [`super::correction::Link::pose_at`]); `None` without correction or
+    /// before pose `i` is pushed.
+    #[cfg(feature = "correct")]
+    pub fn corrected_pose(&self, i: usize) -> Option<crate::Pose> {
+        self.correction.as_ref()?.pose_at(i)
+    }
+
+    /// Re-optimisations since the last call.
+    #[cfg(feature = "correct")]
+    pub fn poll_corrections(&self) -> Vec<super::correction::Correction> {
+        self.correction
+            .as_ref()
+            .map(|c| c.poll())
+            .unwrap_or_default()
+    }
+
+    /// The pose at push index `index` for the corrected path: the pose
+    /// itself, or for one a guard dropped, the last good pose (a stop).
+    #[cfg(feature = "correct")]
+    fn record(&mut self, pose: &PoseInput, accepted: bool) {
+        let Some(c) = &mut self.correction else {
+            return;
+        };
+        if accepted {
+            let p = crate::Pose {
+                t: pose.t,
+                position: pose.position,
+                orientation: pose.orientation,
+            };
+            for _ in 0..=self.last_good.1 {
+                c.pose(p.clone());
+            }
+            self.last_good = (Some(p), 0);
+        } else if let Some(p) = &self.last_good.0 {
+            c.pose(p.clone());
+        } else {
+            self.last_good.1 += 1;
         }
     }
 
@@ -206,9 +283,13 @@ impl Detector {
                     Rejection::OutOfOrder => g.out_of_order += 1,
                     Rejection::Duplicate => g.duplicate += 1,
                 }
+                #[cfg(feature = "correct")]
+                self.record(pose, false);
                 Pushed::Rejected(index, r)
             }
             Ok(()) => {
+                #[cfg(feature = "correct")]
+                self.record(pose, true);
                 self.summary.accepted += 1;
                 if let Some(k) = pose.keyframe {
                     self.outbox.keyframes.push((index, k));
@@ -324,7 +405,21 @@ impl Detector {
 
     /// Candidates that arrived since the last poll.
     pub fn poll(&self) -> Vec<CandidateEvent> {
-        self.events.try_iter().collect()
+        let events: Vec<CandidateEvent> = self.events.try_iter().collect();
+        self.correct_with(&events);
+        events
+    }
+
+    /// Hands candidates to the correction when every candidate enters it.
+    fn correct_with(&self, _events: &[CandidateEvent]) {
+        #[cfg(feature = "correct")]
+        if let Some(c) = &self.correction {
+            if c.input == super::correction::LoopInput::Candidates {
+                for e in _events {
+                    c.close_loop(&e.hypothesis);
+                }
+            }
+        }
     }
 
     /// The candidate channel itself (for `select!` or a blocking receive).
@@ -345,6 +440,53 @@ impl Detector {
     /// Ends the stream: finalises the last samples and segments, waits for
     /// the worker, and returns the remaining candidates and the summary.
     pub fn finish(mut self) -> (Vec<CandidateEvent>, Summary) {
+        // A correction nobody will read ends with its thread's current solve.
+        #[cfg(feature = "correct")]
+        {
+            self.correction = None;
+        }
+        self.drain()
+    }
+
+    /// [`Detector::finish`], and the correction's end: the path solved once
+    /// more with every pose and loop, and the re-optimisations not yet
+    /// polled (`None` without [`Detector::with_correction`]).
+    #[cfg(feature = "correct")]
+    pub fn finish_corrected(
+        self,
+    ) -> (
+        Vec<CandidateEvent>,
+        Summary,
+        Option<super::correction::Finished>,
+    ) {
+        let (events, summary, link) = self.finish_keeping_correction();
+        (events, summary, link.map(|l| l.finish()))
+    }
+
+    /// [`Detector::finish`], handing back the correction's thread still
+    /// running, for loops confirmed after the stream ends (a verifier's
+    /// late verdicts).
+    #[cfg(feature = "correct")]
+    pub fn finish_keeping_correction(
+        mut self,
+    ) -> (
+        Vec<CandidateEvent>,
+        Summary,
+        Option<super::correction::Link>,
+    ) {
+        let correction = self.correction.take();
+        let (events, summary) = self.drain();
+        if let Some(c) = &correction {
+            if c.input == super::correction::LoopInput::Candidates {
+                for e in &events {
+                    c.close_loop(&e.hypothesis);
+                }
+            }
+        }
+        (events, summary, correction)
+    }
+
+    fn drain(mut self) -> (Vec<CandidateEvent>, Summary) {
         let mut counts = self.summary.guards;
         if let super::frontend::Frontend::Warmup(_) = self.front {
             self.front

@@ -18,12 +18,16 @@
 //!   placements and candidates;
 //! - [`worker`]: the thread, the bounded queue and its overflow policy;
 //! - [`events`]: candidates and verifier outcomes;
+//! - `correction` (feature `correct`): the drift-corrected estimate, kept
+//!   up to date on a thread of its own as loops arrive;
 //! - [`detector`]: the public type;
 //! - [`cli`]: `turnprint stream`;
 //! - [`synthetic`]: a synthetic city drive for long-run figures.
 
 pub mod cli;
 pub mod config;
+#[cfg(feature = "correct")]
+pub mod correction;
 pub mod correlator;
 pub mod detector;
 pub mod drift_path;
