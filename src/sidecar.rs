@@ -49,6 +49,9 @@ pub struct VerifyOptions {
     pub verifier: Option<PathBuf>,
     /// Write a figure of the path and the longest confirmed loop here.
     pub plot: Option<PathBuf>,
+    /// Keep a drift-corrected path with the confirmed loops (feature
+    /// `correct`) and write it here as TUM at the end.
+    pub correct: Option<PathBuf>,
 }
 
 impl Default for VerifyOptions {
@@ -62,6 +65,7 @@ impl Default for VerifyOptions {
             timeout: Duration::from_secs(10),
             verifier: None,
             plot: None,
+            correct: None,
         }
     }
 }
@@ -214,7 +218,23 @@ pub fn stream_verified(
     )
     .map_err(io_err)?;
 
-    let mut detector = Detector::new(config.clone(), Overflow::Block);
+    let detector = Detector::new(config.clone(), Overflow::Block);
+    #[cfg(feature = "correct")]
+    let detector = match options.correct {
+        Some(_) => detector.with_correction(
+            crate::correct::CorrectConfig::default(),
+            crate::online::correction::LoopInput::Confirmed,
+        ),
+        None => detector,
+    };
+    #[cfg(not(feature = "correct"))]
+    if options.correct.is_some() {
+        return Err(Error::input(
+            &name,
+            "stream --correct needs turnprint built with the `correct` feature",
+        ));
+    }
+    let mut detector = detector;
     let mut summary = VerifySummary::default();
     let mut published: HashSet<u64> = HashSet::new();
     let mut open: HashMap<u64, Open> = HashMap::new();
@@ -317,9 +337,20 @@ pub fn stream_verified(
             handle(e, &mut client, out, &mut summary, &mut open)?;
         }
         for o in client.poll() {
-            report(&o, &mut open, &mut summary, &mut best, out).map_err(io_err)?;
+            let _confirmed = report(&o, &mut open, &mut summary, &mut best, out).map_err(io_err)?;
+            #[cfg(feature = "correct")]
+            if let Some(h) = _confirmed {
+                detector.close_loop(&h);
+            }
+        }
+        #[cfg(feature = "correct")]
+        for c in detector.poll_corrections() {
+            writeln!(out, "{}", c.to_json(false)).map_err(io_err)?;
         }
     }
+    #[cfg(feature = "correct")]
+    let (rest, _, correction) = detector.finish_keeping_correction();
+    #[cfg(not(feature = "correct"))]
     let (rest, _) = detector.finish();
     for e in rest {
         handle(e, &mut client, out, &mut summary, &mut open)?;
@@ -328,7 +359,11 @@ pub fn stream_verified(
     let deadline = Instant::now() + options.timeout + Duration::from_secs(3);
     while !open.is_empty() && Instant::now() < deadline {
         for o in client.wait(Duration::from_millis(100)) {
-            report(&o, &mut open, &mut summary, &mut best, out).map_err(io_err)?;
+            let _confirmed = report(&o, &mut open, &mut summary, &mut best, out).map_err(io_err)?;
+            #[cfg(feature = "correct")]
+            if let (Some(h), Some(c)) = (_confirmed, &correction) {
+                c.close_loop(&h);
+            }
         }
     }
     let leftovers: Vec<u64> = open.keys().copied().collect();
@@ -342,6 +377,11 @@ pub fn stream_verified(
             )
             .map_err(io_err)?;
         }
+    }
+    #[cfg(feature = "correct")]
+    if let (Some(file), Some(c)) = (&options.correct, correction) {
+        let t0 = Instant::now();
+        c.finish().write(&name, file, t0, out)?;
     }
     summary.seconds = started.elapsed().as_secs_f64();
     if let Some(fig) = &options.plot {
@@ -357,17 +397,19 @@ pub fn stream_verified(
     Ok(summary)
 }
 
-/// One outcome as a JSON line; counts it.
+/// One outcome as a JSON line; counts it. The hypothesis when it is a
+/// confirmation.
 fn report(
     o: &Outcome,
     open: &mut HashMap<u64, Open>,
     s: &mut VerifySummary,
     best: &mut Option<crate::Hypothesis>,
     out: &mut dyn Write,
-) -> std::io::Result<()> {
+) -> std::io::Result<Option<crate::Hypothesis>> {
     let Some(c) = open.remove(&o.id()) else {
-        return Ok(());
+        return Ok(None);
     };
+    let confirmed = matches!(o, Outcome::Confirmed { .. }).then(|| c.hypothesis.clone());
     if matches!(o, Outcome::Confirmed { .. })
         && best.as_ref().is_none_or(|b| {
             b.a_range[1] - b.a_range[0] < c.hypothesis.a_range[1] - c.hypothesis.a_range[0]
@@ -418,7 +460,8 @@ fn report(
             ended("expired", &c, json!({"reason": format!("{reason:?}")}))
         }
     };
-    writeln!(out, "{line}")
+    writeln!(out, "{line}")?;
+    Ok(confirmed)
 }
 
 /// An ending event with the candidate's ranges and keyframes.

@@ -281,7 +281,7 @@ fn main() -> ExitCode {
                         .into(),
                 )
             } else if verify {
-                run_stream_verified(&a, &config, format, truth, &cameras, plot, json)
+                run_stream_verified(&a, &config, format, truth, &cameras, plot, correct, json)
             } else {
                 run_stream(&a, &config, format, correct.as_deref())
             }
@@ -698,6 +698,7 @@ fn run_stream_verified(
     truth: Option<PathBuf>,
     cameras: &str,
     plot: Option<PathBuf>,
+    correct: Option<PathBuf>,
     json: bool,
 ) -> Result<(), Failure> {
     use turnprint::sidecar::{stream_verified, CameraKind, VerifyOptions};
@@ -709,6 +710,7 @@ fn run_stream_verified(
         truth,
         cameras,
         plot,
+        correct,
         ..VerifyOptions::default()
     };
     let mut stdout = std::io::stdout().lock();
@@ -774,6 +776,7 @@ fn run_stream_verified(
     _: Format,
     _: Option<PathBuf>,
     _: &str,
+    _: Option<PathBuf>,
     _: Option<PathBuf>,
     _: bool,
 ) -> Result<(), Failure> {

@@ -175,6 +175,7 @@ fn admit(
     let before: Vec<bool> = (0..loops.len())
         .map(|id| kept.get(id).copied().unwrap_or(false) && has_edges(id))
         .collect();
+    let mut warm = false;
     if before.iter().any(|k| *k) {
         let next = solve::optimise(graph, &solution, &before, true, config.max_iterations)?;
         if (0..loops.len())
@@ -183,13 +184,17 @@ fn admit(
         {
             active = before;
             solution = next;
+            warm = true;
         }
     }
-    let mut order: Vec<usize> = (0..loops.len())
+    // From a warm start, loops turned away before are tried again only if
+    // a new loop is accepted (only then can they fit better than before).
+    let old = if warm { kept.len().min(loops.len()) } else { 0 };
+    let mut order: Vec<usize> = (old..loops.len()).filter(|&id| has_edges(id)).collect();
+    order.sort_by(|&a, &b| loops[b].score.total_cmp(&loops[a].score));
+    let mut rejected: Vec<usize> = (0..old)
         .filter(|&id| has_edges(id) && !active[id])
         .collect();
-    order.sort_by(|&a, &b| loops[b].score.total_cmp(&loops[a].score));
-    let mut rejected: Vec<usize> = Vec::new();
     let mut accepted_since = vec![0usize; loops.len()];
     let mut accepted = 0;
     let try_one =

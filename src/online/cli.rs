@@ -150,24 +150,9 @@ fn write_events(detector: &mut Detector, out: &mut dyn Write) -> Result<()> {
     }
     #[cfg(feature = "correct")]
     for c in detector.poll_corrections() {
-        writeln!(out, "{}", corrected_json(&c, false)).map_err(stdout_error)?;
+        writeln!(out, "{}", c.to_json(false)).map_err(stdout_error)?;
     }
     Ok(())
-}
-
-/// The `corrected` event of one re-optimisation (`last`: the solve over the
-/// whole path at the end).
-#[cfg(feature = "correct")]
-fn corrected_json(c: &super::correction::Correction, last: bool) -> serde_json::Value {
-    json!({
-        "event": "corrected",
-        "poses": c.poses,
-        "loops": c.loops,
-        "kept": c.kept,
-        "largest_move": c.largest_move,
-        "seconds": c.seconds,
-        "final": last,
-    })
 }
 
 /// Drains the detector, writes the rest, the corrected path and the
@@ -188,21 +173,7 @@ fn finish(
     }
     #[cfg(feature = "correct")]
     if let (Some(file), Some(finished)) = (correct, corrected) {
-        for c in &finished.events {
-            writeln!(out, "{}", corrected_json(c, false)).map_err(stdout_error)?;
-        }
-        let c = finished
-            .corrected
-            .ok_or_else(|| Error::input(name, "the path cannot be corrected (it never moves)"))?;
-        let event = super::correction::Correction {
-            poses: c.poses.len(),
-            loops: c.loops.len(),
-            kept: c.kept(),
-            largest_move: 0.0,
-            seconds: t0.elapsed().as_secs_f64(),
-        };
-        crate::io::write_tum(file, &c.trajectory(file.display().to_string()))?;
-        writeln!(out, "{}", corrected_json(&event, true)).map_err(stdout_error)?;
+        finished.write(name, file, t0, out)?;
     }
     #[cfg(not(feature = "correct"))]
     let _ = (correct, t0);

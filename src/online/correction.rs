@@ -51,6 +51,55 @@ pub struct Correction {
     pub seconds: f64,
 }
 
+impl Correction {
+    /// The `corrected` event of `stream` (`last`: the solve over the whole
+    /// path at the end).
+    pub fn to_json(&self, last: bool) -> serde_json::Value {
+        serde_json::json!({
+            "event": "corrected",
+            "poses": self.poses,
+            "loops": self.loops,
+            "kept": self.kept,
+            "largest_move": self.largest_move,
+            "seconds": self.seconds,
+            "final": last,
+        })
+    }
+}
+
+impl Finished {
+    /// Writes the re-optimisations not yet written and the final one as
+    /// `corrected` events to `out`, and the corrected path as TUM to
+    /// `file`; `started` is when the end began (the final event's time).
+    pub fn write(
+        self,
+        name: &str,
+        file: &std::path::Path,
+        started: Instant,
+        out: &mut dyn std::io::Write,
+    ) -> crate::Result<()> {
+        let io = |source| crate::Error::Io {
+            path: "<stdout>".into(),
+            source,
+        };
+        for c in &self.events {
+            writeln!(out, "{}", c.to_json(false)).map_err(io)?;
+        }
+        let c = self.corrected.ok_or_else(|| {
+            crate::Error::input(name, "the path cannot be corrected (it never moves)")
+        })?;
+        let last = Correction {
+            poses: c.poses.len(),
+            loops: c.loops.len(),
+            kept: c.kept(),
+            largest_move: 0.0,
+            seconds: started.elapsed().as_secs_f64(),
+        };
+        crate::io::write_tum(file, &c.trajectory(file.display().to_string()))?;
+        writeln!(out, "{}", last.to_json(true)).map_err(io)
+    }
+}
+
 /// The latest corrected path.
 #[derive(Debug, Clone)]
 pub struct Snapshot {
