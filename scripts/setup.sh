@@ -13,3 +13,23 @@ if [ ${#need[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${need[@]}" >/dev/null
 fi
+# Python with evo and GTSAM for the cross-checks (tests/crosscheck_*.rs,
+# scripts/crosscheck/): a venv at target/pyenv, made once.
+root="$(cd "$(dirname "$0")/.." && pwd)"
+venv="$root/target/pyenv"
+if ! "$venv/bin/python" - >/dev/null 2>&1 <<'PY'
+import importlib.metadata as m
+assert m.version("evo") == "1.38.1" and m.version("gtsam") == "4.3.0"
+import evo.core.metrics, gtsam
+PY
+then
+  if ! python3 -c 'import ensurepip' >/dev/null 2>&1; then
+    SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends python3-venv >/dev/null
+  fi
+  mkdir -p "$root/target"
+  python3 -m venv "$venv"
+  PIP_ROOT_USER_ACTION=ignore "$venv/bin/pip" install -q --no-input --disable-pip-version-check \
+    evo==1.38.1 gtsam==4.3.0
+fi

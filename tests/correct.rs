@@ -3,25 +3,14 @@
 //! input is a clear error.
 #![cfg(all(feature = "correct", feature = "eval"))]
 
-use std::path::PathBuf;
-
 use nalgebra::Vector3;
 use turnprint::correct::{correct, correct_with_loops, CorrectConfig, LoopClosure};
 use turnprint::eval::ape::{ape, Alignment};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::Trajectory;
 
-/// The shared data (`TURNPRINT_DATA` to change), or `None` with a message.
-fn shared(file: &str) -> Option<PathBuf> {
-    let dir = std::env::var("TURNPRINT_DATA").unwrap_or_else(|_| "../shared/data".into());
-    let p = PathBuf::from(dir).join(file);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} is absent (set TURNPRINT_DATA)", p.display());
-        None
-    }
-}
+mod common;
+use common::shared;
 
 fn kitti(file: &str) -> Option<Trajectory> {
     Some(read_trajectory(&shared(file)?, Format::Kitti).expect("readable"))

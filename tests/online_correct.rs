@@ -5,8 +5,6 @@
 //! re-optimisations run off the caller's thread.
 #![cfg(all(feature = "correct", feature = "eval"))]
 
-use std::path::PathBuf;
-
 use nalgebra::Vector3;
 use turnprint::correct::CorrectConfig;
 use turnprint::eval::ape::{ape, Alignment};
@@ -15,17 +13,8 @@ use turnprint::online::correction::LoopInput;
 use turnprint::online::synthetic::CityDrive;
 use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 
-/// The shared data (`TURNPRINT_DATA` to change), or `None` with a message.
-fn shared(file: &str) -> Option<PathBuf> {
-    let dir = std::env::var("TURNPRINT_DATA").unwrap_or_else(|_| "../shared/data".into());
-    let p = PathBuf::from(dir).join(file);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} is absent (set TURNPRINT_DATA)", p.display());
-        None
-    }
-}
+mod common;
+use common::shared;
 
 fn correcting() -> Detector {
     Detector::new(OnlineConfig::default(), Overflow::Block)

@@ -281,7 +281,12 @@ fn main() -> ExitCode {
                         .into(),
                 )
             } else if verify {
-                run_stream_verified(&a, &config, format, truth, &cameras, plot, correct, json)
+                let files = VerifyFiles {
+                    truth,
+                    plot,
+                    correct,
+                };
+                run_stream_verified(&a, &config, format, files, &cameras, json)
             } else {
                 run_stream(&a, &config, format, correct.as_deref())
             }
@@ -690,18 +695,33 @@ fn run_stream(
     Ok(())
 }
 
+/// The files `stream --verify` reads and writes besides the path.
+// Without the verifier, `stream --verify` only says so.
+#[cfg_attr(not(feature = "verifier"), allow(dead_code))]
+struct VerifyFiles {
+    /// The true poses keyframes are rendered from.
+    truth: Option<PathBuf>,
+    /// The figure of the longest confirmed loop.
+    plot: Option<PathBuf>,
+    /// The corrected path (confirmed loops only).
+    correct: Option<PathBuf>,
+}
+
 #[cfg(feature = "verifier")]
 fn run_stream_verified(
     a: &Path,
     config: &turnprint::online::OnlineConfig,
     format: Format,
-    truth: Option<PathBuf>,
+    files: VerifyFiles,
     cameras: &str,
-    plot: Option<PathBuf>,
-    correct: Option<PathBuf>,
     json: bool,
 ) -> Result<(), Failure> {
     use turnprint::sidecar::{stream_verified, CameraKind, VerifyOptions};
+    let VerifyFiles {
+        truth,
+        plot,
+        correct,
+    } = files;
     let cameras = cameras
         .split(',')
         .map(CameraKind::parse)
@@ -774,10 +794,8 @@ fn run_stream_verified(
     _: &Path,
     _: &turnprint::online::OnlineConfig,
     _: Format,
-    _: Option<PathBuf>,
+    _: VerifyFiles,
     _: &str,
-    _: Option<PathBuf>,
-    _: Option<PathBuf>,
     _: bool,
 ) -> Result<(), Failure> {
     Err("--verify needs the verifier: build with --features verifier".into())

@@ -1,5 +1,6 @@
 //! The pose graph in g2o's text format, so that g2o or GTSAM can optimise
-//! the same graph.
+//! the same graph, and g2o files read back as pose graphs, so that turnprint's
+//! solver runs on the standard benchmarks.
 //!
 //! SE(3) graphs use g2o's own `VERTEX_SE3:QUAT id x y z qx qy qz qw` and
 //! `EDGE_SE3:QUAT from to x y z qx qy qz qw` followed by the upper triangle
@@ -9,12 +10,26 @@
 //! last): g2o's own Sim(3) types are written for camera-to-world bundle
 //! adjustment in an exponential-map form, so this keeps the quaternion form
 //! and says so in its tag. `FIX 0` holds the first node.
+//!
+//! [`from_g2o`] reads those and the planar `VERTEX_SE2 id x y θ` /
+//! `EDGE_SE2 from to x y θ` with its 3x3 upper triangle (x, y, θ), lifted to
+//! 3D with z = 0 and the rotation about z. A [`PoseGraph`]'s sigmas are
+//! isotropic per block, so the information must be diagonal with equal
+//! translation entries and equal rotation entries; anything else is an
+//! error, as is any line that is not one of these records. [`cost`] is the
+//! objective the solver minimises in the convention g2o and GTSAM report.
 
 use super::config::Group;
-use super::graph::PoseGraph;
+use super::graph::{Edge, PoseGraph, Sigmas};
 use crate::geometry::Similarity3;
-use nalgebra::{Rotation3, UnitQuaternion};
+use crate::{Error, Result};
+use apex_solver::manifold::se3::SE3;
+use apex_solver::manifold::sim3::Sim3;
+use apex_solver::manifold::{LieGroup, Tangent};
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+use nalgebra_apex as na;
 use std::fmt::Write;
+use std::path::PathBuf;
 
 /// The graph as g2o text (all loops' edges included).
 pub fn to_g2o(graph: &PoseGraph) -> String {
@@ -70,4 +85,632 @@ fn pose(p: &Similarity3, with_scale: bool) -> String {
         let _ = write!(s, " {:.9}", p.scale);
     }
     s
+}
+
+/// Relative tolerance within which information entries count as equal and
+/// off-diagonal ones as zero: the file's own printing, not a modelling one.
+const INFO_TOLERANCE: f64 = 1e-9;
+
+/// The pose graph in g2o text `text`.
+///
+/// Node ids must be 0..n-1 (in any order); node 0 is the one the solver
+/// holds, so `FIX` may only name it. Every edge comes back as odometry
+/// (`loop_id` None): the format has no slot for a loop's identity, so a
+/// graph written by [`to_g2o`] reads back with its loop edges as plain edges.
+/// A planar graph's out-of-plane sigmas equal its in-plane ones: its start
+/// and its measurements lie in the plane, where the out-of-plane residuals
+/// are zero and the cost is even in any out-of-plane move, so the solver
+/// never leaves the plane and the cost is the planar one whatever that sigma
+/// is; equal sigmas keep those directions as well conditioned as the rest.
+/// `Sigmas::log_scale` of an SE(3) graph is 1 (unused).
+pub fn from_g2o(text: &str) -> Result<PoseGraph> {
+    let mut kind: Option<Kind> = None;
+    let mut vertices: Vec<(usize, usize, Similarity3)> = Vec::new();
+    let mut edges: Vec<(usize, Edge)> = Vec::new();
+    let mut fixed: Vec<(usize, usize)> = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let content = raw.trim();
+        if content.is_empty() || content.starts_with('#') {
+            continue;
+        }
+        let mut fields = content.split_whitespace();
+        let tag = fields.next().unwrap_or_default();
+        let rest: Vec<&str> = fields.collect();
+        if tag == "FIX" {
+            if rest.is_empty() {
+                return Err(parse_error(line, "FIX names no node"));
+            }
+            for f in &rest {
+                fixed.push((line, id(f, line)?));
+            }
+            continue;
+        }
+        let (this, is_vertex) = Kind::of(tag).ok_or_else(|| {
+            parse_error(
+                line,
+                format!(
+                    "unknown record '{}' (expected VERTEX_SE3:QUAT, EDGE_SE3:QUAT, \
+                     VERTEX_SIM3:QUAT, EDGE_SIM3:QUAT, VERTEX_SE2, EDGE_SE2 or FIX)",
+                    clip(tag)
+                ),
+            )
+        })?;
+        match kind {
+            None => kind = Some(this),
+            Some(k) if k != this => {
+                return Err(parse_error(
+                    line,
+                    format!("{tag} in a graph of {} records", k.name()),
+                ))
+            }
+            _ => {}
+        }
+        let ids = if is_vertex { 1 } else { 2 };
+        let want = ids + this.pose_len() + if is_vertex { 0 } else { this.info_len() };
+        if rest.len() != want {
+            return Err(parse_error(
+                line,
+                format!(
+                    "{tag} needs {want} fields after the tag, found {}",
+                    rest.len()
+                ),
+            ));
+        }
+        let a = id(rest[0], line)?;
+        let numbers = rest[ids..]
+            .iter()
+            .enumerate()
+            .map(|(k, f)| number(f, ids + k + 2, line))
+            .collect::<Result<Vec<f64>>>()?;
+        let (pose_numbers, info) = numbers.split_at(this.pose_len());
+        let pose = this.pose(pose_numbers).map_err(|m| parse_error(line, m))?;
+        if is_vertex {
+            vertices.push((line, a, pose));
+        } else {
+            let b = id(rest[1], line)?;
+            if a == b {
+                return Err(parse_error(line, format!("edge from node {a} to itself")));
+            }
+            let sigmas = this.sigmas(info).map_err(|m| parse_error(line, m))?;
+            edges.push((
+                line,
+                Edge {
+                    from: a,
+                    to: b,
+                    from_T_to: pose,
+                    sigmas,
+                    loop_id: None,
+                },
+            ));
+        }
+    }
+    let kind = kind.ok_or_else(|| parse_error(text.lines().count().max(1), "no vertices"))?;
+    let n = vertices.len();
+    let mut poses: Vec<Option<Similarity3>> = vec![None; n];
+    for (line, id, pose) in vertices {
+        match poses.get_mut(id) {
+            None => {
+                return Err(parse_error(
+                    line,
+                    format!("vertex id {id} out of 0..{n}: ids must be 0..n-1"),
+                ))
+            }
+            Some(Some(_)) => return Err(parse_error(line, format!("vertex {id} given twice"))),
+            Some(slot) => *slot = Some(pose),
+        }
+    }
+    // n slots filled by n distinct ids below n: every slot is set.
+    let poses: Vec<Similarity3> = poses.into_iter().flatten().collect();
+    if poses.len() < 2 {
+        return Err(parse_error(
+            1,
+            format!("{} vertex: a pose graph needs 2", poses.len()),
+        ));
+    }
+    for &(line, id) in &fixed {
+        if id != 0 {
+            return Err(parse_error(
+                line,
+                format!("FIX {id}: only node 0 can be held (the solver holds node 0)"),
+            ));
+        }
+    }
+    let mut out = Vec::with_capacity(edges.len());
+    for (line, e) in edges {
+        if let Some(bad) = [e.from, e.to].into_iter().find(|&v| v >= n) {
+            return Err(parse_error(
+                line,
+                format!("edge names vertex {bad}, which is not given"),
+            ));
+        }
+        out.push(e);
+    }
+    if out.is_empty() {
+        return Err(parse_error(text.lines().count().max(1), "no edges"));
+    }
+    Ok(PoseGraph {
+        keyframes: (0..n).collect(),
+        poses,
+        edges: out,
+        group: if kind == Kind::Sim3 {
+            Group::Sim3
+        } else {
+            Group::Se3
+        },
+    })
+}
+
+/// 0.5 · Σ over `graph`'s edges of the squared whitened residual at `poses`:
+/// the objective apex-solver minimises (the residual of an edge `i -> j` is
+/// the Lie logarithm of `(world_T_i⁻¹ world_T_j)⁻¹ · i_T_j`, translation
+/// through the group's left Jacobian, each component over its sigma), equal
+/// to GTSAM's `graph.error(values)` and half g2o's χ². Every edge counts,
+/// loop edges included.
+/// NaN when `poses` does not hold every node an edge names.
+pub fn cost(graph: &PoseGraph, poses: &[Similarity3]) -> f64 {
+    let sim3 = graph.group == Group::Sim3;
+    graph
+        .edges
+        .iter()
+        .map(|e| {
+            if e.from.max(e.to) >= poses.len() {
+                return f64::NAN;
+            }
+            let s = e.sigmas;
+            let r: Vec<f64> = if sim3 {
+                let (a, b, m) = (sim(&poses[e.from]), sim(&poses[e.to]), sim(&e.from_T_to));
+                b.between(&a, None, None)
+                    .compose(&m, None, None)
+                    .log(None)
+                    .as_slice()
+                    .to_vec()
+            } else {
+                let (a, b, m) = (se3(&poses[e.from]), se3(&poses[e.to]), se3(&e.from_T_to));
+                b.between(&a, None, None)
+                    .compose(&m, None, None)
+                    .log(None)
+                    .as_slice()
+                    .to_vec()
+            };
+            let sigma = |k: usize| match k {
+                0..=2 => s.translation,
+                3..=5 => s.rotation,
+                _ => s.log_scale,
+            };
+            0.5 * r
+                .iter()
+                .enumerate()
+                .map(|(k, v)| (v / sigma(k)).powi(2))
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+fn apex_parts(p: &Similarity3) -> (na::Vector3<f64>, na::UnitQuaternion<f64>) {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&p.rotation));
+    let t = p.translation;
+    (
+        na::Vector3::new(t.x, t.y, t.z),
+        na::UnitQuaternion::new_unchecked(na::Quaternion::new(q.w, q.i, q.j, q.k)),
+    )
+}
+
+fn se3(p: &Similarity3) -> SE3 {
+    let (t, q) = apex_parts(p);
+    SE3::new(t, q)
+}
+
+fn sim(p: &Similarity3) -> Sim3 {
+    let (t, q) = apex_parts(p);
+    Sim3::new(t, q, p.scale)
+}
+
+/// The record families of a file; one file holds one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Se3,
+    Sim3,
+    Se2,
+}
+
+impl Kind {
+    /// The family of `tag` and whether it is a vertex.
+    fn of(tag: &str) -> Option<(Kind, bool)> {
+        Some(match tag {
+            "VERTEX_SE3:QUAT" => (Kind::Se3, true),
+            "EDGE_SE3:QUAT" => (Kind::Se3, false),
+            "VERTEX_SIM3:QUAT" => (Kind::Sim3, true),
+            "EDGE_SIM3:QUAT" => (Kind::Sim3, false),
+            "VERTEX_SE2" => (Kind::Se2, true),
+            "EDGE_SE2" => (Kind::Se2, false),
+            _ => return None,
+        })
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Kind::Se3 => "SE3:QUAT",
+            Kind::Sim3 => "SIM3:QUAT",
+            Kind::Se2 => "SE2",
+        }
+    }
+
+    fn pose_len(self) -> usize {
+        match self {
+            Kind::Se3 => 7,
+            Kind::Sim3 => 8,
+            Kind::Se2 => 3,
+        }
+    }
+
+    fn dim(self) -> usize {
+        match self {
+            Kind::Se3 => 6,
+            Kind::Sim3 => 7,
+            Kind::Se2 => 3,
+        }
+    }
+
+    fn info_len(self) -> usize {
+        let d = self.dim();
+        d * (d + 1) / 2
+    }
+
+    fn pose(self, v: &[f64]) -> std::result::Result<Similarity3, String> {
+        if self == Kind::Se2 {
+            let (s, c) = v[2].sin_cos();
+            return Ok(Similarity3 {
+                scale: 1.0,
+                rotation: Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0),
+                translation: Vector3::new(v[0], v[1], 0.0),
+            });
+        }
+        let q = Quaternion::new(v[6], v[3], v[4], v[5]);
+        let norm = q.norm();
+        // Printed quaternions are unit to their digits; far from it is no
+        // orientation at all.
+        if !(norm > 0.5 && norm < 2.0) {
+            return Err(format!(
+                "quaternion ({} {} {} {}) is not a rotation",
+                v[3], v[4], v[5], v[6]
+            ));
+        }
+        let scale = if self == Kind::Sim3 { v[7] } else { 1.0 };
+        if scale <= 0.0 {
+            return Err(format!("scale {scale} is not positive"));
+        }
+        Ok(Similarity3 {
+            scale,
+            rotation: *UnitQuaternion::new_normalize(q)
+                .to_rotation_matrix()
+                .matrix(),
+            translation: Vector3::new(v[0], v[1], v[2]),
+        })
+    }
+
+    /// The sigmas of an upper-triangle information matrix, or why it has
+    /// none.
+    fn sigmas(self, upper: &[f64]) -> std::result::Result<Sigmas, String> {
+        let d = self.dim();
+        let mut diag = Vec::with_capacity(d);
+        let mut off_max: f64 = 0.0;
+        let mut k = 0;
+        for i in 0..d {
+            for j in i..d {
+                if i == j {
+                    diag.push(upper[k]);
+                } else {
+                    off_max = off_max.max(upper[k].abs());
+                }
+                k += 1;
+            }
+        }
+        if let Some(bad) = diag.iter().find(|v| **v <= 0.0) {
+            return Err(format!("information diagonal entry {bad} is not positive"));
+        }
+        let largest = diag.iter().cloned().fold(0.0, f64::max);
+        if off_max > INFO_TOLERANCE * largest {
+            return Err(format!(
+                "information has off-diagonal entries (up to {off_max}): only a diagonal one \
+                 has per-block sigmas"
+            ));
+        }
+        let (translation, rotation, log_scale) = match self {
+            Kind::Se2 => (&diag[0..2], &diag[2..3], None),
+            Kind::Se3 => (&diag[0..3], &diag[3..6], None),
+            Kind::Sim3 => (&diag[0..3], &diag[3..6], Some(diag[6])),
+        };
+        let one = |block: &[f64], what: &str| -> std::result::Result<f64, String> {
+            let first = block[0];
+            if block
+                .iter()
+                .any(|v| (v - first).abs() > INFO_TOLERANCE * first)
+            {
+                return Err(format!(
+                    "{what} information {block:?} differs between axes: the graph's sigmas \
+                     are one per block"
+                ));
+            }
+            Ok(1.0 / first.sqrt())
+        };
+        Ok(Sigmas {
+            translation: one(translation, "translation")?,
+            rotation: one(rotation, "rotation")?,
+            log_scale: log_scale.map_or(1.0, |v| 1.0 / v.sqrt()),
+        })
+    }
+}
+
+fn parse_error(line: usize, message: impl Into<String>) -> Error {
+    Error::Parse {
+        path: PathBuf::from("g2o"),
+        line,
+        message: message.into(),
+    }
+}
+
+fn id(field: &str, line: usize) -> Result<usize> {
+    field
+        .parse::<usize>()
+        .map_err(|_| parse_error(line, format!("'{}' is not a node id", clip(field))))
+}
+
+fn number(field: &str, column: usize, line: usize) -> Result<f64> {
+    match field.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(parse_error(
+            line,
+            format!("'{}' in field {column} is not a finite number", clip(field)),
+        )),
+    }
+}
+
+/// A field shortened for a one-line message.
+fn clip(s: &str) -> String {
+    const MAX: usize = 40;
+    if s.chars().count() <= MAX {
+        s.to_string()
+    } else {
+        format!("{}...", s.chars().take(MAX).collect::<String>())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pose(angles: (f64, f64, f64), t: [f64; 3], scale: f64) -> Similarity3 {
+        Similarity3 {
+            scale,
+            rotation: *Rotation3::from_euler_angles(angles.0, angles.1, angles.2).matrix(),
+            translation: Vector3::from(t),
+        }
+    }
+
+    /// Four nodes, odometry and one loop edge, in `group`.
+    fn graph(group: Group) -> PoseGraph {
+        let s = if group == Group::Sim3 { 1.1 } else { 1.0 };
+        let poses = vec![
+            Similarity3::identity(),
+            pose((0.1, -0.05, 0.4), [1.0, 0.2, -0.1], 1.0),
+            pose((0.0, 0.2, 1.5), [1.5, 1.4, 0.3], 1.0),
+            pose((-0.3, 0.1, 3.0), [0.2, 1.1, 0.1], 1.0),
+        ];
+        let sigmas = Sigmas {
+            translation: 0.05,
+            rotation: 0.01,
+            log_scale: if group == Group::Sim3 { 0.2 } else { 1.0 },
+        };
+        let mut edges: Vec<Edge> = (0..3)
+            .map(|k| Edge {
+                from: k,
+                to: k + 1,
+                from_T_to: poses[k].inverse().compose(&poses[k + 1]),
+                sigmas,
+                loop_id: None,
+            })
+            .collect();
+        edges.push(Edge {
+            from: 3,
+            to: 0,
+            from_T_to: pose((0.2, -0.1, -2.9), [-0.1, 1.0, 0.0], s),
+            sigmas: Sigmas {
+                translation: 0.5,
+                rotation: 0.1,
+                ..sigmas
+            },
+            loop_id: Some(0),
+        });
+        PoseGraph {
+            keyframes: (0..4).collect(),
+            poses,
+            edges,
+            group,
+        }
+    }
+
+    fn close(a: &Similarity3, b: &Similarity3) -> bool {
+        (a.translation - b.translation).norm() < 1e-8
+            && (a.rotation - b.rotation).norm() < 1e-8
+            && (a.scale - b.scale).abs() < 1e-8
+    }
+
+    #[test]
+    fn to_g2o_then_from_g2o_gives_the_same_graph() {
+        for group in [Group::Se3, Group::Sim3] {
+            let g = graph(group);
+            let back = from_g2o(&to_g2o(&g)).expect("reads its own output");
+            assert_eq!(back.group, g.group);
+            assert_eq!(back.keyframes, g.keyframes);
+            assert_eq!(back.poses.len(), g.poses.len());
+            assert!(g.poses.iter().zip(&back.poses).all(|(a, b)| close(a, b)));
+            assert_eq!(back.edges.len(), g.edges.len());
+            for (a, b) in g.edges.iter().zip(&back.edges) {
+                assert_eq!((a.from, a.to), (b.from, b.to));
+                assert!(close(&a.from_T_to, &b.from_T_to), "{group:?}");
+                let rel = |x: f64, y: f64| (x - y).abs() <= 1e-12 * x;
+                assert!(rel(a.sigmas.translation, b.sigmas.translation));
+                assert!(rel(a.sigmas.rotation, b.sigmas.rotation));
+                if group == Group::Sim3 {
+                    assert!(rel(a.sigmas.log_scale, b.sigmas.log_scale));
+                }
+                // The format has no loop identity.
+                assert_eq!(b.loop_id, None);
+            }
+            let (c, d) = (cost(&g, &g.poses), cost(&back, &back.poses));
+            assert!((c - d).abs() <= 1e-6 * c, "{c} vs {d}");
+        }
+    }
+
+    #[test]
+    fn cost_is_half_the_squared_whitened_residual() {
+        let mut g = graph(Group::Se3);
+        g.edges.truncate(3);
+        assert!(cost(&g, &g.poses) < 1e-20);
+        // Node 3 moved by one translation sigma along its own x axis: only
+        // the last odometry edge sees it, 1 sigma in translation.
+        let mut moved = g.poses.clone();
+        moved[3] = moved[3].compose(&pose((0.0, 0.0, 0.0), [0.05, 0.0, 0.0], 1.0));
+        assert!(
+            (cost(&g, &moved) - 0.5).abs() < 1e-12,
+            "{}",
+            cost(&g, &moved)
+        );
+        // A rotation of two rotation sigmas about the node's own z: 0.5 * 2².
+        let mut turned = g.poses.clone();
+        turned[3] = turned[3].compose(&pose((0.0, 0.0, 0.02), [0.0; 3], 1.0));
+        assert!(
+            (cost(&g, &turned) - 2.0).abs() < 1e-9,
+            "{}",
+            cost(&g, &turned)
+        );
+        assert!(cost(&g, &g.poses[..2]).is_nan());
+    }
+
+    #[test]
+    fn planar_graphs_are_lifted_about_z() {
+        let text = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 2 1.5707963267948966\n\
+                    EDGE_SE2 0 1 1 2 1.5 100 0 0 100 0 400\nFIX 0\n";
+        let g = from_g2o(text).expect("reads");
+        assert_eq!(g.group, Group::Se3);
+        let p = &g.poses[1];
+        assert!((p.translation - Vector3::new(1.0, 2.0, 0.0)).norm() < 1e-12);
+        assert!((p.rotation * Vector3::x() - Vector3::y()).norm() < 1e-12);
+        let e = &g.edges[0];
+        assert!((e.sigmas.translation - 0.1).abs() < 1e-12);
+        assert!((e.sigmas.rotation - 0.05).abs() < 1e-12);
+        // Measured 1.5 rad against π/2 and the translation exactly: the
+        // residual is the rotation's alone, in its sigma.
+        let dth: f64 = std::f64::consts::FRAC_PI_2 - 1.5;
+        let expected = 0.5 * (dth / 0.05).powi(2);
+        let c = cost(&g, &g.poses);
+        assert!((c - expected).abs() < 1e-9 * expected, "{c} vs {expected}");
+    }
+
+    fn error_of(text: &str) -> String {
+        match from_g2o(text) {
+            Ok(_) => panic!("accepted: {text}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn bad_input_is_a_clear_error_naming_the_line() {
+        let v = "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n";
+        let info = "1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 4 0 0 4 0 4";
+        let edge = |fields: &str| format!("{v}EDGE_SE3:QUAT 0 1 {fields}\n");
+        let cases: Vec<(String, &str)> = vec![
+            (String::new(), "no vertices"),
+            (v.to_string(), "no edges"),
+            ("VERTEX_XYZ 0 1 2 3\n".into(), "unknown record"),
+            (
+                format!("{v}EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1\n"),
+                "needs 30 fields after the tag, found 9",
+            ),
+            (
+                edge(&format!("1 0 zero 0 0 0 1 {info}")),
+                "not a finite number",
+            ),
+            (
+                edge(&format!("1 0 NaN 0 0 0 1 {info}")),
+                "not a finite number",
+            ),
+            (edge(&format!("1 0 0 0 0 0 0 {info}")), "not a rotation"),
+            (
+                edge(&format!(
+                    "1 0 0 0 0 0 1 {}",
+                    info.replacen("1 0", "1 0.5", 1)
+                )),
+                "off-diagonal",
+            ),
+            (
+                edge(&format!(
+                    "1 0 0 0 0 0 1 {}",
+                    info.replace("4 0 0 4 0 4", "4 0 0 4 0 1")
+                )),
+                "rotation information",
+            ),
+            (
+                edge(&format!("1 0 0 0 0 0 1 {}", info.replacen('1', "-1", 1))),
+                "not positive",
+            ),
+            (
+                format!("{v}EDGE_SE3:QUAT 0 0 1 0 0 0 0 0 1 {info}\n"),
+                "to itself",
+            ),
+            (
+                format!("{v}EDGE_SE3:QUAT 0 5 1 0 0 0 0 0 1 {info}\n"),
+                "vertex 5",
+            ),
+            (
+                format!("{v}EDGE_SE3:QUAT -1 1 1 0 0 0 0 0 1 {info}\n"),
+                "not a node id",
+            ),
+            (
+                format!("{v}VERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"),
+                "given twice",
+            ),
+            (
+                "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 2 1 0 0 0 0 0 1\n".into(),
+                "ids must be 0..n-1",
+            ),
+            (format!("{v}VERTEX_SE2 2 0 0 0\n"), "in a graph of"),
+            (
+                format!("{}FIX 1\n", edge(&format!("1 0 0 0 0 0 1 {info}"))),
+                "only node 0",
+            ),
+            (
+                format!("{}FIX\n", edge(&format!("1 0 0 0 0 0 1 {info}"))),
+                "FIX names no node",
+            ),
+            (
+                "VERTEX_SIM3:QUAT 0 0 0 0 0 0 0 1 -1\n".into(),
+                "not positive",
+            ),
+        ];
+        for (text, expected) in cases {
+            let message = error_of(&text);
+            assert!(message.contains(expected), "{text:?}: {message}");
+            assert!(message.starts_with("g2o:"), "{message}");
+        }
+        // A bad line's number is in the message.
+        let message = error_of(&edge(&format!("1 0 zero 0 0 0 1 {info}")));
+        assert!(message.starts_with("g2o:3:"), "{message}");
+    }
+
+    #[test]
+    fn arbitrary_bytes_never_panic() {
+        let samples = [
+            "EDGE_SE3:QUAT",
+            "VERTEX_SE2 0 1e400 0 0",
+            "VERTEX_SE2 99999999999999999999999 0 0 0",
+            "FIX 0 0 0",
+            "\u{feff}VERTEX_SE2 0 0 0 0",
+            "VERTEX_SIM3:QUAT 0 0 0 0 0 0 0 1 inf",
+        ];
+        for s in samples {
+            let _ = from_g2o(s);
+        }
+    }
 }

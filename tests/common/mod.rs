@@ -49,3 +49,16 @@ pub fn is_correct(c: &CandidateEvent, truth: &[Vector3<f64>]) -> bool {
     };
     loop_correct(&claim, truth, 10.0)
 }
+
+/// `file` under the shared data (`TURNPRINT_DATA`, default
+/// `../shared/data`), or `None` with a message saying it is skipped.
+pub fn shared(file: &str) -> Option<std::path::PathBuf> {
+    let dir = std::env::var("TURNPRINT_DATA").unwrap_or_else(|_| "../shared/data".into());
+    let p = std::path::PathBuf::from(dir).join(file);
+    if p.is_file() {
+        Some(p)
+    } else {
+        eprintln!("skipped: {} is absent (set TURNPRINT_DATA)", p.display());
+        None
+    }
+}
