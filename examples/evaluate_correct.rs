@@ -314,18 +314,11 @@ fn main() {
         if std::env::var("VERBOSE").is_ok() {
             for l in &corrected.loops {
                 let c = &l.closure;
-                // Median true distance from the query poses to the match range.
-                let mut d: Vec<f64> = (c.query_range[0]..=c.query_range[1])
-                    .map(|i| {
-                        (c.match_range[0]..=c.match_range[1])
-                            .map(|j| (truth[i] - truth[j]).norm())
-                            .fold(f64::INFINITY, f64::min)
-                    })
-                    .collect();
-                d.sort_by(f64::total_cmp);
+                let offset =
+                    turnprint::eval::revisits::true_offset(c.query_range, c.match_range, &truth);
                 eprintln!(
                     "  q {:?} m {:?} score {:.2} scale {:.3} rmse {:.2} residual {:.1} kept {} true dist {:.1} m",
-                    c.query_range, c.match_range, c.score, c.query_T_match.scale, c.rmse, l.residual, l.kept, d[d.len() / 2]
+                    c.query_range, c.match_range, c.score, c.query_T_match.scale, c.rmse, l.residual, l.kept, offset
                 );
             }
         }

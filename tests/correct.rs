@@ -16,17 +16,8 @@ fn kitti(file: &str) -> Option<Trajectory> {
     Some(read_trajectory(&shared(file)?, Format::Kitti).expect("readable"))
 }
 
-/// Median true distance from a loop's query poses to its match range.
 fn true_offset(l: &LoopClosure, truth: &[Vector3<f64>]) -> f64 {
-    let mut d: Vec<f64> = (l.query_range[0]..=l.query_range[1])
-        .map(|i| {
-            (l.match_range[0]..=l.match_range[1])
-                .map(|j| (truth[i] - truth[j]).norm())
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect();
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2]
+    turnprint::eval::revisits::true_offset(l.query_range, l.match_range, truth)
 }
 
 /// MULLS run without its loop closure on KITTI 00 (APE 5.82 m): corrected

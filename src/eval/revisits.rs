@@ -102,6 +102,21 @@ pub fn events(
     out
 }
 
+/// Median true distance from the poses of `query` (an inclusive index
+/// range) to the nearest pose of `matched`: how far apart a loop's two
+/// passes really are (0 for the same road in the same lane).
+pub fn true_offset(query: [usize; 2], matched: [usize; 2], truth: &[Vector3<f64>]) -> f64 {
+    let mut d: Vec<f64> = (query[0]..=query[1])
+        .map(|i| {
+            (matched[0]..=matched[1])
+                .map(|j| (truth[i] - truth[j]).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(f64::INFINITY)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
