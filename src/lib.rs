@@ -10,8 +10,13 @@
 //!    -> correct (pose graph: odometry + loops -> path without drift)
 //! ```
 //!
-//! The online detector reuses the batch stages; the verifier sidecar lives
-//! behind the `verifier` feature so the core builds without OpenCV.
+//! The online detector reuses the batch stages. This crate is the core an
+//! embedding user links; the heavy parts are crates of their own:
+//! `turnprint-cli` (the `turnprint` command, figures), `turnprint-ipc`
+//! (iceoryx2 link to a verifier), `turnprint-verifier` (OpenCV verifier
+//! sidecar, rendered test world) and `turnprint-eval` (the evaluation).
+//! Drift correction (`correct`) is the feature `correct`, since its solver
+//! brings a few hundred crates.
 
 pub mod align;
 #[cfg(feature = "correct")]
@@ -24,12 +29,8 @@ pub mod matching;
 pub mod online;
 pub mod parallel;
 pub mod pipeline;
-#[cfg(feature = "plot")]
-pub mod plot;
 pub mod score;
 pub mod segments;
-#[cfg(feature = "verifier")]
-pub mod sidecar;
 pub mod signature;
 pub mod track;
 pub mod trajectory;
@@ -38,11 +39,3 @@ pub use error::{Error, Result};
 pub use hypothesis::Hypothesis;
 pub use pipeline::{find_loops, match_paths, Config};
 pub use trajectory::{Pose, Trajectory};
-#[cfg(feature = "eval")]
-pub mod eval;
-#[cfg(feature = "ipc")]
-pub mod ipc;
-#[cfg(feature = "render")]
-pub mod render;
-#[cfg(any(feature = "render", feature = "verifier"))]
-pub mod vision;

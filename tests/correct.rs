@@ -1,11 +1,11 @@
 //! Drift correction (`turnprint::correct`): real odometry without loop
 //! closure gets better, wrong loops are switched off and reported, bad
 //! input is a clear error.
-#![cfg(all(feature = "correct", feature = "eval"))]
+#![cfg(feature = "correct")]
 
 use nalgebra::Vector3;
 use turnprint::correct::{correct, correct_with_loops, CorrectConfig, LoopClosure};
-use turnprint::eval::ape::{ape, Alignment};
+use turnprint_eval::ape::{ape, Alignment};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::Trajectory;
 
@@ -17,7 +17,7 @@ fn kitti(file: &str) -> Option<Trajectory> {
 }
 
 fn true_offset(l: &LoopClosure, truth: &[Vector3<f64>]) -> f64 {
-    turnprint::eval::revisits::true_offset(l.query_range, l.match_range, truth)
+    turnprint_eval::revisits::true_offset(l.query_range, l.match_range, truth)
 }
 
 /// MULLS run without its loop closure on KITTI 00 (APE 5.82 m): corrected

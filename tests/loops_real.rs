@@ -1,11 +1,10 @@
 //! Loops on real paths that regressed or were fixed, named after the bug.
-#![cfg(feature = "eval")]
 
 use std::path::Path;
 
-use turnprint::eval::data::load_sequence;
-use turnprint::eval::drift::DriftModel;
-use turnprint::eval::{loops, Prepared, Source};
+use turnprint_eval::data::load_sequence;
+use turnprint_eval::drift::DriftModel;
+use turnprint_eval::{loops, Prepared, Source};
 
 /// KITTI 08's monocular ORB-SLAM2 estimate was never closed: its revisits
 /// lie about 90 steps from the earlier pass, in reverse, bent by scale

@@ -1,13 +1,12 @@
 //! Merges of real paths that regressed or were fixed, named after the bug.
-#![cfg(feature = "eval")]
 
 use std::path::Path;
 
 use rand::rngs::StdRng;
 use rand::SeedableRng;
-use turnprint::eval::data::load_sequence;
-use turnprint::eval::merge::{window_case, MergeCase};
-use turnprint::eval::{Prepared, Source};
+use turnprint_eval::data::load_sequence;
+use turnprint_eval::merge::{window_case, MergeCase};
+use turnprint_eval::{Prepared, Source};
 
 /// The case on these windows under four random similarities.
 fn cases(

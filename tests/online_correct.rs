@@ -3,11 +3,11 @@
 //! better at the end than the odometry, every pushed pose has a corrected
 //! pose at every moment, dropped poses keep the indices aligned, and the
 //! re-optimisations run off the caller's thread.
-#![cfg(all(feature = "correct", feature = "eval"))]
+#![cfg(feature = "correct")]
 
 use nalgebra::Vector3;
 use turnprint::correct::CorrectConfig;
-use turnprint::eval::ape::{ape, Alignment};
+use turnprint_eval::ape::{ape, Alignment};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::correction::LoopInput;
 use turnprint::online::synthetic::CityDrive;

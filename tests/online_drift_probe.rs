@@ -5,14 +5,12 @@
 //! seven; on 08's monocular estimate, which ORB-SLAM2 never closed, none
 //! without it.
 
-#![cfg(feature = "eval")]
-
 use std::path::Path;
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint::eval::data::load_sequence;
-use turnprint::eval::drift::DriftModel;
+use turnprint_eval::data::load_sequence;
+use turnprint_eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::OnlineConfig;
 

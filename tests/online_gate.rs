@@ -5,13 +5,11 @@
 //! candidate that would have been emitted: streaming real paths with the
 //! gate on and off emits the same candidates.
 
-#![cfg(feature = "eval")]
-
 use std::path::Path;
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint::eval::drift::DriftModel;
+use turnprint_eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::OnlineConfig;
 

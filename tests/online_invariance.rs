@@ -8,12 +8,11 @@
 //! rescaled floating point move a segment boundary by a sample here and
 //! there, so a matching may fall due a pose earlier or later. What must not
 //! change is which revisits are found, and roughly how many candidates.
-#![cfg(feature = "eval")]
 
 use std::path::Path;
 
 use nalgebra::{Rotation3, Vector3};
-use turnprint::eval::revisits::{arc_lengths, events, revisits};
+use turnprint_eval::revisits::{arc_lengths, events, revisits};
 use turnprint::geometry::Similarity3;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{CandidateEvent, OnlineConfig};

@@ -2,13 +2,11 @@
 //! probe's seed finds the earlier road but no candidate, the newest stretch
 //! is placed on everything driven before, not only on the one earlier pass.
 
-#![cfg(feature = "eval")]
-
 use std::path::Path;
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint::eval::drift::DriftModel;
+use turnprint_eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{OnlineConfig, Source};
 

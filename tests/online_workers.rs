@@ -5,13 +5,11 @@
 //! depends on earlier matchings (a registration too soon after the
 //! previous one, the ids) is settled in stream order (`worker::Settle`).
 
-#![cfg(feature = "eval")]
-
 use std::path::Path;
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint::eval::drift::DriftModel;
+use turnprint_eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{
     CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Source, Summary,

@@ -9,7 +9,7 @@ use std::ffi::{c_char, c_int, CStr};
 use std::time::Duration;
 
 use nalgebra::{Matrix3, Vector3};
-use turnprint::ipc::{CameraParams, ClientConfig, Outcome, VerifierClient};
+use turnprint_ipc::{CameraParams, ClientConfig, Outcome, VerifierClient};
 use turnprint::online::events::KeyframePair;
 use turnprint::online::{CandidateEvent, Source};
 use turnprint::Hypothesis;
@@ -186,7 +186,7 @@ pub unsafe extern "C" fn tp_verifier_submit(
             set_error("tp_verifier_submit: verifier or candidate is NULL");
             return 0;
         };
-        let Some(hint) = event_of(c).to_verifier() else {
+        let Some(hint) = turnprint_ipc::Candidate::from_event(&event_of(c)) else {
             set_error("tp_verifier_submit: the candidate names no keyframes (push keyframe ids)");
             return 0;
         };
@@ -229,7 +229,7 @@ pub unsafe extern "C" fn tp_verifier_free(verifier: *mut TpVerifier) {
 }
 
 /// The detector event a `tp_candidate` came from, as far as the verifier
-/// needs it, so the hint is made by [`CandidateEvent::to_verifier`] itself.
+/// needs it, so the hint is made by [`turnprint_ipc::Candidate::from_event`] itself.
 fn event_of(c: &TpCandidate) -> CandidateEvent {
     let r = &c.rotation;
     let hypothesis = Hypothesis {

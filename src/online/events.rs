@@ -49,7 +49,7 @@ pub struct CandidateEvent {
     /// Which search found it.
     pub source: Source,
     /// The keyframe pair a verifier should compare (when keyframes were
-    /// given): see [`CandidateEvent::to_verifier`].
+    /// given): see `turnprint_ipc::Candidate::from_event`.
     pub keyframes: Option<KeyframePair>,
     /// Keyframe ids inside the query range (at most 8, spread evenly).
     pub query_keyframes: Vec<u64>,
@@ -71,28 +71,6 @@ pub struct KeyframePair {
 }
 
 impl CandidateEvent {
-    /// The candidate as the verifier client takes it
-    /// (`p_match = s R p_query + t`, the inverse of the hypothesis, which
-    /// maps match points onto the query part). `None` without keyframes.
-    #[cfg(feature = "ipc")]
-    #[allow(non_snake_case)]
-    pub fn to_verifier(&self) -> Option<crate::ipc::client::Candidate> {
-        let k = self.keyframes?;
-        let h = &self.hypothesis;
-        let inv_scale = 1.0 / h.scale;
-        let match_R_query = h.rotation.transpose();
-        Some(crate::ipc::client::Candidate {
-            query_keyframe: k.query_keyframe,
-            match_keyframe: k.match_keyframe,
-            query_pose: k.query_pose as u64,
-            match_pose: k.match_pose as u64,
-            scale: inv_scale,
-            rotation: match_R_query,
-            translation: -(match_R_query * h.translation) * inv_scale,
-            score: h.score,
-        })
-    }
-
     /// The JSON Lines form of `cli.md` (`stream`): a `loops` entry plus
     /// `event`, `at_pose` and `id`.
     pub fn to_json(&self) -> Value {

@@ -21,10 +21,8 @@
 //! - `correction` (feature `correct`): the drift-corrected estimate, kept
 //!   up to date on a thread of its own as loops arrive;
 //! - [`detector`]: the public type;
-//! - [`cli`]: `turnprint stream`;
 //! - [`synthetic`]: a synthetic city drive for long-run figures.
 
-pub mod cli;
 pub mod config;
 #[cfg(feature = "correct")]
 pub mod correction;

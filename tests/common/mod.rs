@@ -38,9 +38,8 @@ pub fn output_with_stdin(mut command: Command, input: Vec<u8>) -> Output {
 
 /// Whether candidate `c` is correct against the ground-truth positions
 /// `truth` (`eval::checks::loop_correct`, 10 m).
-#[cfg(feature = "eval")]
 pub fn is_correct(c: &CandidateEvent, truth: &[Vector3<f64>]) -> bool {
-    use turnprint::eval::checks::{loop_correct, LoopClaim};
+    use turnprint_eval::checks::{loop_correct, LoopClaim};
     let h = &c.hypothesis;
     let claim = LoopClaim {
         query: h.a_range,
@@ -50,15 +49,9 @@ pub fn is_correct(c: &CandidateEvent, truth: &[Vector3<f64>]) -> bool {
     loop_correct(&claim, truth, 10.0)
 }
 
-/// `file` under the shared data (`TURNPRINT_DATA`, default
-/// `../shared/data`), or `None` with a message saying it is skipped.
+/// `file` (the shared data's layout, e.g. `kitti_gt/00.txt`) where the
+/// real data is, or `None` after a line saying it is skipped
+/// ([`turnprint_eval::data::require`]).
 pub fn shared(file: &str) -> Option<std::path::PathBuf> {
-    let dir = std::env::var("TURNPRINT_DATA").unwrap_or_else(|_| "../shared/data".into());
-    let p = std::path::PathBuf::from(dir).join(file);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} is absent (set TURNPRINT_DATA)", p.display());
-        None
-    }
+    turnprint_eval::data::require(file)
 }

@@ -1,0 +1,7 @@
+//! The parts of the `turnprint` command that are more than argument
+//! parsing: figures ([`plot`]), `stream` replays and stdin ([`stream`]), and
+//! `stream --verify` with the visual verifier sidecar ([`sidecar`]).
+
+pub mod plot;
+pub mod sidecar;
+pub mod stream;

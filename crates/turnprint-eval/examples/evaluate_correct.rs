@@ -1,0 +1,340 @@
+//! Drift correction on every real odometry estimate of KITTI in the shared
+//! data, and on the ground truth itself (do no harm): APE before and after
+//! `turnprint::correct`, as evo computes it (SE(3) Umeyama for metric
+//! estimates, Sim(3) for monocular ones), with the loops kept and rejected
+//! and the time taken (EVALUATION.md, "Drift correction").
+//!
+//! Usage: `cargo run --release --example evaluate_correct -- [FILTER]`
+//! (data from ../shared/data, or `DATA=dir`); FILTER keeps the rows whose
+//! estimate name contains it. `ONLINE=1` streams each estimate through the
+//! online detector with drift correction instead (`stream --correct`) and
+//! reports its corrected path at the end. `SYNTH=1` corrects the ground
+//! truth under synthetic drift (random walks and systematic biases, random
+//! similarities, both directions) instead.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use turnprint::correct::{correct, CorrectConfig};
+use turnprint_eval::ape::{ape, Alignment};
+use turnprint::io::{read_trajectory, Format};
+use turnprint::Trajectory;
+
+/// The shared data, relative to the project root (`DATA=dir` to change).
+fn data_dir() -> PathBuf {
+    PathBuf::from(std::env::var("DATA").unwrap_or_else(|_| "../shared/data".into()))
+}
+
+/// One estimate of one sequence, paired pose by pose with the truth.
+struct Case {
+    name: String,
+    seq: String,
+    path: PathBuf,
+    format: Format,
+    alignment: Alignment,
+}
+
+const SEQS: [&str; 7] = ["00", "02", "05", "06", "07", "08", "09"];
+
+fn cases(dir: &Path) -> Vec<Case> {
+    let mut out = Vec::new();
+    let mut add = |name: &str, seq: &str, path: PathBuf, format: Format, alignment| {
+        if path.is_file() {
+            out.push(Case {
+                name: name.into(),
+                seq: seq.into(),
+                path,
+                format,
+                alignment,
+            });
+        }
+    };
+    for seq in SEQS {
+        let gt = dir.join("kitti_gt").join(format!("{seq}.txt"));
+        add("ground truth", seq, gt, Format::Kitti, Alignment::Se3);
+        let odo = dir.join("odometry");
+        for (name, sub) in [
+            (
+                "MULLS without loop closure",
+                "kitti_mulls_dso/mulls_no_loop",
+            ),
+            ("MULLS with loop closure", "kitti_mulls_dso/mulls_with_loop"),
+            ("A-LOAM", "kitti_aloam"),
+            ("LiDAR GICP", "kitti_cvo_lidar/lidar_gicp"),
+            ("LiDAR NDT", "kitti_cvo_lidar/lidar_ndt"),
+            ("DSO (metric)", "kitti_mulls_dso/dso"),
+        ] {
+            add(
+                name,
+                seq,
+                odo.join(sub).join(format!("{seq}.txt")),
+                Format::Kitti,
+                Alignment::Se3,
+            );
+        }
+        add(
+            "LiDAR CVO",
+            seq,
+            odo.join("kitti_cvo_lidar/lidar_cvo_geometric")
+                .join(format!("acvo_geometric_{seq}.txt")),
+            Format::Kitti,
+            Alignment::Se3,
+        );
+        add(
+            "ORB-SLAM2 monocular",
+            seq,
+            dir.join("kitti_orbslam2_vio")
+                .join(format!("{seq}_orbslam2_tum.txt")),
+            Format::Tum,
+            Alignment::Sim3,
+        );
+    }
+    add(
+        "S-PTAM stereo",
+        "00",
+        dir.join("evo/KITTI_00_SPTAM.txt"),
+        Format::Kitti,
+        Alignment::Se3,
+    );
+    add(
+        "ORB-SLAM stereo (loop-closed)",
+        "00",
+        dir.join("evo/KITTI_00_ORB.txt"),
+        Format::Kitti,
+        Alignment::Se3,
+    );
+    out
+}
+
+/// Ground-truth index of each pose: by order for one pose per frame, else
+/// by timestamp (within 20 ms of a frame time).
+fn pairing(t: &Trajectory, gt_len: usize, times: &[f64]) -> Option<Vec<usize>> {
+    if t.len() == gt_len {
+        return Some((0..gt_len).collect());
+    }
+    t.poses
+        .iter()
+        .map(|p| {
+            let t = p.t?;
+            let k = times.partition_point(|x| *x < t);
+            [k.saturating_sub(1), k.min(times.len().checked_sub(1)?)]
+                .into_iter()
+                .min_by(|a, b| (times[*a] - t).abs().total_cmp(&(times[*b] - t).abs()))
+                .filter(|j| (times[*j] - t).abs() < 0.02)
+        })
+        .collect()
+}
+
+/// The estimate streamed through the online detector with drift
+/// correction (every candidate enters the graph); the corrected path at the
+/// end, with the re-optimisations' count and slowest time on stderr.
+fn streamed(est: &Trajectory) -> turnprint::Result<turnprint::correct::Corrected> {
+    use turnprint::online::correction::LoopInput;
+    use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
+    let mut d = Detector::new(OnlineConfig::default(), Overflow::Block)
+        .with_correction(CorrectConfig::default(), LoopInput::Candidates);
+    let mut solves = Vec::new();
+    for p in &est.poses {
+        d.push(&PoseInput {
+            t: p.t,
+            position: p.position,
+            orientation: p.orientation,
+            keyframe: None,
+        });
+        d.poll();
+        solves.extend(d.poll_corrections());
+    }
+    let (_, _, finished) = d.finish_corrected();
+    let finished = finished.expect("correction enabled");
+    solves.extend(finished.events);
+    let slowest = solves.iter().map(|c| c.seconds).fold(0.0, f64::max);
+    eprintln!(
+        "  {} re-optimisations while streaming, slowest {slowest:.3} s",
+        solves.len()
+    );
+    finished
+        .corrected
+        .ok_or_else(|| turnprint::Error::input(&est.source, "not corrected"))
+}
+
+/// The ground truth's positions with synthetic drift: `walk` the random
+/// walks of [`DriftModel::strong`] at a quarter strength (about 4.5° of
+/// heading and 1 % of scale after 2 km, as KITTI's stereo and LiDAR
+/// odometry), or a systematic bias (a miscalibrated wheel base or a
+/// monocular scale drift: heading turning 0.3° per 100 m travelled, scale
+/// growing 1 % per 100 m), then moved by a random similarity (scale 0.01 to
+/// 100, any rotation); half the seeds drive the path the other way.
+fn drifted(truth: &[Vector3<f64>], walk: bool, seed: u64) -> (Vec<Vector3<f64>>, Vec<usize>) {
+    use rand::SeedableRng;
+    use turnprint_eval::drift::{plane_normal, DriftModel};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut order: Vec<usize> = (0..truth.len()).collect();
+    if seed % 2 == 1 {
+        order.reverse();
+    }
+    let ordered: Vec<Vector3<f64>> = order.iter().map(|&i| truth[i]).collect();
+    let moved = if walk {
+        DriftModel::strong().scaled(0.25).apply(&ordered, &mut rng)
+    } else {
+        let n = plane_normal(&ordered);
+        let (mut at, mut s) = (ordered[0], 0.0);
+        let mut out = vec![at];
+        for w in ordered.windows(2) {
+            let d = w[1] - w[0];
+            s += d.norm();
+            let r = nalgebra::Rotation3::from_axis_angle(&n, (0.3f64).to_radians() * s / 100.0);
+            at += (1.0 + 0.01 * s / 100.0) * (r * d);
+            out.push(at);
+        }
+        out
+    };
+    let sim = turnprint_eval::similarity::random_similarity(&mut rng, 100.0);
+    (moved.iter().map(|p| sim.apply(p)).collect(), order)
+}
+
+/// `SYNTH=1`: APE after / before on ground truth with synthetic drift,
+/// per drift model, over every sequence that revisits and ten seeds.
+fn synthetic(dir: &Path) {
+    println!(
+        "| drift | runs | median APE after / before | share improved 5x | median kept loops |"
+    );
+    println!("|---|---|---|---|---|");
+    for (walk, name) in [(true, "random walk"), (false, "systematic bias")] {
+        let (mut ratios, mut kept) = (Vec::new(), Vec::new());
+        for seq in ["00", "02", "05", "06", "08"] {
+            let Ok(gt) = read_trajectory(
+                &dir.join("kitti_gt").join(format!("{seq}.txt")),
+                Format::Kitti,
+            ) else {
+                continue;
+            };
+            let truth = gt.positions();
+            for seed in 0..10 {
+                let (est, order) = drifted(&truth, walk, seed);
+                let t: Vec<Vector3<f64>> = order.iter().map(|&i| truth[i]).collect();
+                let path = Trajectory {
+                    source: format!("{seq} seed {seed}"),
+                    poses: est.iter().map(|p| turnprint::Pose::at(*p)).collect(),
+                };
+                let Ok(c) = correct(&path, &CorrectConfig::default()) else {
+                    continue;
+                };
+                let after: Vec<_> = c.poses.iter().map(|p| p.position).collect();
+                let (Some(b), Some(a)) = (
+                    ape(&est, &t, Alignment::Sim3),
+                    ape(&after, &t, Alignment::Sim3),
+                ) else {
+                    continue;
+                };
+                eprintln!(
+                    "  {name} {seq} seed {seed}: APE {:.2} -> {:.2} m (truth units), kept {}",
+                    b.rmse,
+                    a.rmse,
+                    c.kept()
+                );
+                ratios.push(a.rmse / b.rmse);
+                kept.push(c.kept() as f64);
+            }
+        }
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        let five = ratios.iter().filter(|r| **r <= 0.2).count() as f64 / ratios.len().max(1) as f64;
+        println!(
+            "| {name} | {} | {:.2} | {:.0} % | {:.0} |",
+            ratios.len(),
+            median(&mut ratios),
+            100.0 * five,
+            median(&mut kept)
+        );
+    }
+}
+
+fn main() {
+    let dir = data_dir();
+    if std::env::var("SYNTH").is_ok() {
+        synthetic(&dir);
+        return;
+    }
+    let online = std::env::var("ONLINE").is_ok();
+    let filter = std::env::args().nth(1).unwrap_or_default();
+    println!("| estimate | seq | poses | APE before | APE after | after / before | loops kept / rejected | graph | s |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for case in cases(&dir).into_iter().filter(|c| c.name.contains(&filter)) {
+        let gt = read_trajectory(
+            &dir.join("kitti_gt").join(format!("{}.txt", case.seq)),
+            Format::Kitti,
+        )
+        .expect("ground truth");
+        let times: Vec<f64> =
+            std::fs::read_to_string(dir.join("kitti_gt").join(format!("{}_times.txt", case.seq)))
+                .map(|s| s.lines().filter_map(|l| l.trim().parse().ok()).collect())
+                .unwrap_or_default();
+        let est = match read_trajectory(&case.path, case.format) {
+            Ok(t) => t,
+            Err(e) => {
+                println!("| {} | {} | unreadable: {e} |", case.name, case.seq);
+                continue;
+            }
+        };
+        let Some(pairs) = pairing(&est, gt.len(), &times) else {
+            println!(
+                "| {} | {} | {} | not paired with the truth | | | | | |",
+                case.name,
+                case.seq,
+                est.len()
+            );
+            continue;
+        };
+        let truth: Vec<Vector3<f64>> = pairs.iter().map(|&j| gt.poses[j].position).collect();
+        let started = Instant::now();
+        let result = if online {
+            streamed(&est)
+        } else {
+            correct(&est, &CorrectConfig::default())
+        };
+        let corrected = match result {
+            Ok(c) => c,
+            Err(e) => {
+                println!(
+                    "| {} | {} | {} | failed: {e} |",
+                    case.name,
+                    case.seq,
+                    est.len()
+                );
+                continue;
+            }
+        };
+        let seconds = started.elapsed().as_secs_f64();
+        let before = ape(&est.positions(), &truth, case.alignment).map_or(f64::NAN, |s| s.rmse);
+        let after_positions: Vec<_> = corrected.poses.iter().map(|p| p.position).collect();
+        let after = ape(&after_positions, &truth, case.alignment).map_or(f64::NAN, |s| s.rmse);
+        if std::env::var("VERBOSE").is_ok() {
+            for l in &corrected.loops {
+                let c = &l.closure;
+                let offset =
+                    turnprint_eval::revisits::true_offset(c.query_range, c.match_range, &truth);
+                eprintln!(
+                    "  q {:?} m {:?} score {:.2} scale {:.3} rmse {:.2} residual {:.1} kept {} true dist {:.1} m",
+                    c.query_range, c.match_range, c.score, c.query_T_match.scale, c.rmse, l.residual, l.kept, offset
+                );
+            }
+        }
+        let kept = corrected.kept();
+        println!(
+            "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {} / {} | {} | {:.2} |",
+            case.name,
+            case.seq,
+            est.len(),
+            before,
+            after,
+            after / before,
+            kept,
+            corrected.loops.len() - kept,
+            corrected.group.name(),
+            seconds
+        );
+    }
+}
