@@ -3,7 +3,9 @@
 //! the ZNCC search grows with the square of the length), `match` of two
 //! 5000-pose paths, `match` of KITTI 00 against its 1 Hz GPS
 //! (two sampling rates: matched twice), and, side by side, the FFT ZNCC
-//! against the direct one on the same signature.
+//! against the direct one on the same signature. The paths come from the
+//! shared data (`turnprint_eval::data`); a bench whose file is absent says
+//! so and is skipped.
 
 use std::hint::black_box;
 
@@ -15,25 +17,35 @@ use turnprint::matching::Correlator;
 use turnprint::pipeline::{find_loops, match_paths, Config, PreparedPath};
 use turnprint::Trajectory;
 
-fn kitti(name: &str) -> Trajectory {
-    read_trajectory(format!("tests/data/{name}").as_ref(), Format::Auto).expect("fixture")
+/// `file` of the shared data (e.g. `kitti_gt/00.txt`), or `None` after a
+/// line saying it is skipped.
+fn data(file: &str) -> Option<Trajectory> {
+    let path = turnprint_eval::data::require(file)?;
+    Some(read_trajectory(&path, Format::Auto).expect("the file reads"))
+}
+
+/// KITTI ground truth `name`.
+fn kitti(name: &str) -> Option<Trajectory> {
+    data(&format!("kitti_gt/{name}.txt"))
 }
 
 /// 5000 poses: KITTI 02 (4661 poses) continued by KITTI 00's first 339.
-fn five_thousand() -> Trajectory {
-    let mut t = kitti("02.txt");
-    let tail = kitti("00.txt");
+fn five_thousand() -> Option<Trajectory> {
+    let mut t = kitti("02")?;
+    let tail = kitti("00")?;
     let offset = t.poses.last().unwrap().position - tail.poses[0].position;
     t.poses.extend(
         tail.poses[..339]
             .iter()
             .map(|p| turnprint::Pose::at(p.position + offset)),
     );
-    t
+    Some(t)
 }
 
 fn bench_loops(c: &mut Criterion) {
-    let a = kitti("00.txt");
+    let Some(a) = kitti("00") else {
+        return;
+    };
     let config = Config::for_loops();
     c.bench_function("loops KITTI 00 (4541 poses, end to end)", |b| {
         b.iter(|| find_loops(black_box(&a), &config).unwrap())
@@ -42,10 +54,10 @@ fn bench_loops(c: &mut Criterion) {
 
 /// KITTI 00, 02, 05, 06 and 08 driven one after the other, each drive
 /// starting where the last one ended.
-fn five_drives() -> Trajectory {
-    let mut t = kitti("00.txt");
-    for name in ["02.txt", "05.txt", "06.txt", "08.txt"] {
-        let next = kitti(name);
+fn five_drives() -> Option<Trajectory> {
+    let mut t = kitti("00")?;
+    for name in ["02", "05", "06", "08"] {
+        let next = kitti(name)?;
         let offset = t.poses.last().unwrap().position - next.poses[0].position;
         t.poses.extend(
             next.poses
@@ -53,11 +65,13 @@ fn five_drives() -> Trajectory {
                 .map(|p| turnprint::Pose::at(p.position + offset)),
         );
     }
-    t
+    Some(t)
 }
 
 fn bench_loops_long(c: &mut Criterion) {
-    let a = five_drives();
+    let Some(a) = five_drives() else {
+        return;
+    };
     let config = Config::for_loops();
     let mut group = c.benchmark_group("loops of five KITTI drives in a row");
     group.sample_size(10);
@@ -68,7 +82,9 @@ fn bench_loops_long(c: &mut Criterion) {
 }
 
 fn bench_match(c: &mut Criterion) {
-    let a = five_thousand();
+    let Some(a) = five_thousand() else {
+        return;
+    };
     let r = Rotation3::from_euler_angles(0.4, -0.9, 2.2);
     let mut pts: Vec<Vector3<f64>> = a
         .positions()
@@ -85,8 +101,9 @@ fn bench_match(c: &mut Criterion) {
 }
 
 fn bench_match_gps(c: &mut Criterion) {
-    let a = kitti("00.txt");
-    let b = kitti("KittiGps_converted.txt");
+    let (Some(a), Some(b)) = (kitti("00"), data("gtsam_data/KittiGps_converted.txt")) else {
+        return;
+    };
     let config = Config::for_matching();
     c.bench_function("match KITTI 00 x its 1 Hz GPS (4541 x 470 poses)", |bch| {
         bch.iter(|| match_paths(black_box(&a), black_box(&b), &config).unwrap())
@@ -94,7 +111,9 @@ fn bench_match_gps(c: &mut Criterion) {
 }
 
 fn bench_zncc(c: &mut Criterion) {
-    let a = kitti("00.txt");
+    let Some(a) = kitti("00") else {
+        return;
+    };
     let p = PreparedPath::new(&a, &Config::default()).unwrap();
     let sig = &p.signature.value;
     let query = &sig[200..400];

@@ -1,20 +1,26 @@
 //! Embedding the online detector in a visual-odometry loop.
 //!
 //! `cargo run --release --example vo_loop -- [TRAJECTORY]` replays a pose
-//! file (default: KITTI 00 ground truth from tests/data) as if each pose
-//! came from a VO front end, one keyframe every 5 frames, and prints the
-//! candidates as they arrive.
+//! file (default: KITTI 00 ground truth, `kitti_gt/00.txt` of the shared
+//! data: `$TURNPRINT_DATA`, `../shared/data` or the set-up cache) as if each
+//! pose came from a VO front end, one keyframe every 5 frames, and prints
+//! the candidates as they arrive.
 
-use std::path::Path;
+use std::path::PathBuf;
 
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 
 fn main() -> turnprint::Result<()> {
-    let file = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "tests/data/00.txt".into());
-    let vo = read_trajectory(Path::new(&file), Format::Auto)?;
+    let file = match std::env::args().nth(1) {
+        Some(file) => PathBuf::from(file),
+        // Says what is missing and where it looked.
+        None => match turnprint_eval::data::require("kitti_gt/00.txt") {
+            Some(path) => path,
+            None => return Ok(()),
+        },
+    };
+    let vo = read_trajectory(&file, Format::Auto)?;
 
     // --- the embedding: one detector, one push per pose, poll when convenient.
     let mut detector = Detector::new(OnlineConfig::default(), Overflow::MergeLatest);

@@ -13,7 +13,8 @@ out=${OUT:-out/drift_verified}
 factor=${FACTOR:-1}
 cameras=${CAMERAS:-pinhole}
 mkdir -p "$out"
-cargo build --release --all-features --bin turnprint --bin turnprint-verifier --example drifted
+cargo build --release --workspace --all-features --bins
+cargo build --release -p turnprint-eval --example drifted
 for seq in 00 02 05 06 08; do
   for seed in 1 2; do
     input="$out/${seq}_s$seed.tum"

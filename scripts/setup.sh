@@ -33,3 +33,8 @@ then
   PIP_ROOT_USER_ACTION=ignore "$venv/bin/pip" install -q --no-input --disable-pip-version-check \
     evo==1.38.1 gtsam==4.3.0
 fi
+# Real data from the package registries (evo's source distribution, the
+# gtsam wheel) into target/data, for the demo on a machine without the
+# project's shared data and for the tests of files the shared data lacks
+# (the ROS 2 bag). Idempotent: a second run checks and skips.
+bash "$root/scripts/fetch_data.sh" "$root/target/data"

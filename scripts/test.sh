@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# The whole test suite on a fresh Debian/Ubuntu machine with Rust:
-# installs the system packages it needs, then builds and runs every test.
+# The whole test suite on a fresh Debian/Ubuntu machine with Rust: installs
+# the system packages and fetches the registry data it needs, then builds
+# and runs every test of every crate.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-# The library, the CLI, the verifier sidecar and the evaluation.
-cargo test --all-features --release 2>&1
-# The C ABI, built as a C or C++ caller builds it (no OpenCV in it); its
-# verifier test runs the sidecar the line above built.
-cargo test --release -p turnprint-capi 2>&1
+# The binaries first: the CLI's and the C ABI's tests start the verifier
+# sidecar, a binary of another crate.
+cargo build --release --workspace --all-features --bins 2>&1
+cargo test --release --workspace --all-features 2>&1

@@ -1,15 +1,21 @@
 //! Pins the batch outputs of track, signature and segments on KITTI 00 and
 //! 06 (ground truth), so refactoring the stages into incremental forms
 //! cannot change them. `TURNPRINT_WRITE_PIN=1` rewrites the pins (only ever
-//! done before a refactor, from the code being replaced).
+//! done before a refactor, from the code being replaced). The pins are in
+//! `tests/pins`; the ground truth comes from the shared data.
 
 use std::path::Path;
 
 use turnprint::io::{read_trajectory, Format};
 use turnprint::pipeline::{Config, PreparedPath};
 
-fn digest(path: &str) -> serde_json::Value {
-    let t = read_trajectory(Path::new(path), Format::Auto).expect("fixture reads");
+mod common;
+
+/// Where the pins are.
+const PINS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/pins");
+
+fn digest(path: &Path) -> serde_json::Value {
+    let t = read_trajectory(path, Format::Auto).expect("ground truth reads");
     let p = PreparedPath::new(&t, &Config::default()).expect("prepares");
     let tr = &p.track;
     let every = |v: &[f64]| v.iter().step_by(97).copied().collect::<Vec<f64>>();
@@ -33,10 +39,13 @@ fn digest(path: &str) -> serde_json::Value {
 }
 
 fn check(name: &str) {
-    let pin = format!("tests/data/pins/batch_{name}.json");
-    let now = digest(&format!("tests/data/{name}.txt"));
+    let Some(path) = common::shared(&format!("kitti_gt/{name}.txt")) else {
+        return;
+    };
+    let pin = format!("{PINS}/batch_{name}.json");
+    let now = digest(&path);
     if std::env::var("TURNPRINT_WRITE_PIN").is_ok() {
-        std::fs::create_dir_all("tests/data/pins").unwrap();
+        std::fs::create_dir_all(PINS).unwrap();
         std::fs::write(&pin, serde_json::to_string(&now).unwrap()).unwrap();
         return;
     }

@@ -1,7 +1,10 @@
-//! Invariance properties on a real path (KITTI 00, tests/data): matching a
-//! copy of a path under any similarity (scale 0.01..100, any 3D rotation,
-//! any translation), in either direction, gives the transform back, and the
-//! copy's segment boundaries fall at the same arc-length fractions.
+//! Invariance properties on a real path (KITTI 00 ground truth, from the
+//! shared data): matching a copy of a path under any similarity (scale
+//! 0.01..100, any 3D rotation, any translation), in either direction, gives
+//! the transform back, and the copy's segment boundaries fall at the same
+//! arc-length fractions.
+
+use std::sync::OnceLock;
 
 use nalgebra::{Rotation3, Unit, Vector3};
 use proptest::prelude::*;
@@ -9,12 +12,24 @@ use turnprint::io::{read_trajectory, Format};
 use turnprint::pipeline::{match_paths, Config, PreparedPath};
 use turnprint::Trajectory;
 
-fn kitti_window(first: usize, last: usize) -> Trajectory {
-    let full = read_trajectory("tests/data/00.txt".as_ref(), Format::Auto).expect("fixture");
-    Trajectory {
+mod common;
+
+/// KITTI 00 ground truth, read once (`None`, said once, when absent).
+fn kitti_00() -> Option<&'static Trajectory> {
+    static FULL: OnceLock<Option<Trajectory>> = OnceLock::new();
+    FULL.get_or_init(|| {
+        let path = common::shared("kitti_gt/00.txt")?;
+        Some(read_trajectory(&path, Format::Kitti).expect("KITTI 00 reads"))
+    })
+    .as_ref()
+}
+
+/// Poses `first..=last` of KITTI 00 ground truth, or `None` when absent.
+fn kitti_window(first: usize, last: usize) -> Option<Trajectory> {
+    Some(Trajectory {
         source: format!("00[{first}..{last}]"),
-        poses: full.poses[first..=last].to_vec(),
-    }
+        poses: kitti_00()?.poses[first..=last].to_vec(),
+    })
 }
 
 /// `p_b = s R p_a + t`, in reverse order when `reversed`.
@@ -62,7 +77,9 @@ proptest! {
         t in prop::array::uniform3(-1e4f64..1e4),
         reversed in any::<bool>(),
     ) {
-        let a = kitti_window(0, 1500);
+        let Some(a) = kitti_window(0, 1500) else {
+            return Ok(());
+        };
         let (s, r, t) = (10f64.powf(log_s), rotation(axis, angle), Vector3::from(t));
         let b = disguise(&a, s, &r, &t, reversed);
         let hyps = match_paths(&a, &b, &Config::for_matching()).expect("valid paths");
@@ -83,7 +100,9 @@ proptest! {
         angle in 0.0f64..std::f64::consts::TAU,
         reversed in any::<bool>(),
     ) {
-        let a = kitti_window(300, 2300);
+        let Some(a) = kitti_window(300, 2300) else {
+            return Ok(());
+        };
         let b = disguise(&a, 10f64.powf(log_s), &rotation(axis, angle), &Vector3::new(5.0, -3.0, 1.0), reversed);
         let config = Config::default();
         let (pa, pb) = (PreparedPath::new(&a, &config).unwrap(), PreparedPath::new(&b, &config).unwrap());

@@ -1,6 +1,7 @@
-//! Reading every fixture in tests/data: detection, pose counts, values and
-//! timestamps against the files' own text, a TUM round trip, and the GPX
-//! east-north-up conversion against independently computed distances.
+//! Reading every kind of file in the shared data: detection, pose counts,
+//! values and timestamps against the files' own text, a TUM round trip, and
+//! the GPX east-north-up conversion against independently computed
+//! distances. Files absent from the data location are skipped.
 
 use std::path::{Path, PathBuf};
 
@@ -9,22 +10,43 @@ use turnprint::io::{
     detect_format, geodetic_to_enu, parse_trajectory, read_trajectory, write_tum, Format, Geodetic,
 };
 
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
+mod common;
+
+/// The GPX track of the first 40 fixes of KITTI 00's GPS, made from
+/// `gtsam_data/KittiGps_converted.txt` ([`common::kitti_gps_gpx`]).
+const GPX: &str = "kitti_gps_head.gpx";
+
+/// `name` (the shared data's layout, or [`GPX`], written into `dir`) where
+/// it is, or `None` after a line saying it is skipped.
+fn data(dir: &Path, name: &str) -> Option<PathBuf> {
+    if name == GPX {
+        let path = dir.join(GPX);
+        if !path.is_file() {
+            std::fs::write(&path, common::kitti_gps_gpx(40)?).unwrap();
+        }
+        return Some(path);
+    }
+    common::shared(name)
 }
 
-fn detected(name: &str) -> Format {
-    let path = data(name);
-    let text = std::fs::read_to_string(&path).unwrap();
-    detect_format(&text, &path).unwrap()
+/// Every one of `names` where it is ([`data`]), or `None` when one is absent.
+fn all<const N: usize>(dir: &Path, names: [&str; N]) -> Option<[PathBuf; N]> {
+    let mut paths = Vec::with_capacity(N);
+    for name in names {
+        paths.push(data(dir, name)?);
+    }
+    paths.try_into().ok()
 }
 
-/// Numbers of the `line`-th (1-based) line of a fixture, split on commas
-/// and whitespace: the expected values come straight from the file.
-fn numbers_of_line(name: &str, line: usize) -> Vec<f64> {
-    let text = std::fs::read_to_string(data(name)).unwrap();
+fn detected(path: &Path) -> Format {
+    let text = std::fs::read_to_string(path).unwrap();
+    detect_format(&text, path).unwrap()
+}
+
+/// Numbers of the `line`-th (1-based) line of a file, split on commas and
+/// whitespace: the expected values come straight from the file.
+fn numbers_of_line(path: &Path, line: usize) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
     text.lines()
         .nth(line - 1)
         .unwrap()
@@ -36,29 +58,33 @@ fn numbers_of_line(name: &str, line: usize) -> Vec<f64> {
 
 #[test]
 fn auto_detection_picks_the_format_of_every_kind_of_shared_file() {
+    let dir = tempfile::tempdir().unwrap();
     let cases = [
-        ("00.txt", Format::Kitti),
-        ("02.txt", Format::Kitti),
-        ("05.txt", Format::Kitti),
-        ("06.txt", Format::Kitti),
-        ("08.txt", Format::Kitti),
-        ("00_orbslam2_tum.txt", Format::Tum),
-        ("06_orbslam2_tum.txt", Format::Tum),
-        ("KittiGps_converted.txt", Format::Csv),
-        ("V102_groundtruth_head.csv", Format::Euroc),
-        ("fr079_odom.csv", Format::Csv),
-        ("kitti_gps_head.gpx", Format::Gpx),
-        ("heads/KITTI_00_ORB.txt", Format::Kitti),
-        ("heads/KITTI_00_SPTAM.txt", Format::Kitti),
-        ("heads/georeferenced.tum", Format::Tum),
-        ("heads/fr2_desk_groundtruth.txt", Format::Tum),
-        ("heads/fr2_desk_ORB_kf_mono.txt", Format::Tum),
-        ("heads/MH_01_easy.txt", Format::Tum),
-        ("heads/V1_01_easy_original.txt", Format::Tum),
-        ("heads/intel_odom.csv", Format::Csv),
+        ("kitti_gt/00.txt", Format::Kitti),
+        ("kitti_gt/02.txt", Format::Kitti),
+        ("kitti_gt/05.txt", Format::Kitti),
+        ("kitti_gt/06.txt", Format::Kitti),
+        ("kitti_gt/08.txt", Format::Kitti),
+        ("kitti_orbslam2_vio/00_orbslam2_tum.txt", Format::Tum),
+        ("kitti_orbslam2_vio/06_orbslam2_tum.txt", Format::Tum),
+        ("gtsam_data/KittiGps_converted.txt", Format::Csv),
+        ("euroc/V102_groundtruth.csv", Format::Euroc),
+        ("carmen/fr079_odom.csv", Format::Csv),
+        (GPX, Format::Gpx),
+        ("evo/KITTI_00_ORB.txt", Format::Kitti),
+        ("evo/KITTI_00_SPTAM.txt", Format::Kitti),
+        ("evo/georeferenced.tum", Format::Tum),
+        ("evo/fr2_desk_groundtruth.txt", Format::Tum),
+        ("evo/fr2_desk_ORB_kf_mono.txt", Format::Tum),
+        ("euroc/MH_01_easy.txt", Format::Tum),
+        ("euroc/V1_01_easy_original.txt", Format::Tum),
+        ("carmen/intel_odom.csv", Format::Csv),
     ];
     for (name, format) in cases {
-        assert_eq!(detected(name), format, "{name}");
+        let Some(path) = data(dir.path(), name) else {
+            continue;
+        };
+        assert_eq!(detected(&path), format, "{name}");
     }
 }
 
@@ -87,36 +113,45 @@ fn detection_sniffs_content_when_the_extension_says_nothing() {
 }
 
 #[test]
-fn every_fixture_reads_with_the_right_pose_count() {
+fn every_kind_of_file_reads_with_the_right_pose_count() {
+    let dir = tempfile::tempdir().unwrap();
+    // Comment lines (georeferenced 2, fr2/desk 3, the CSV headers) are no
+    // poses.
     let cases = [
-        ("00.txt", 4541),
-        ("02.txt", 4661),
-        ("05.txt", 2761),
-        ("06.txt", 1101),
-        ("08.txt", 4071),
-        ("00_orbslam2_tum.txt", 4541),
-        ("06_orbslam2_tum.txt", 1101),
-        ("KittiGps_converted.txt", 470),
-        ("V102_groundtruth_head.csv", 499),
-        ("fr079_odom.csv", 8951),
-        ("kitti_gps_head.gpx", 40),
-        ("heads/KITTI_00_ORB.txt", 50),
-        ("heads/georeferenced.tum", 48),
-        ("heads/fr2_desk_groundtruth.txt", 47),
-        ("heads/intel_odom.csv", 49),
+        ("kitti_gt/00.txt", 4541),
+        ("kitti_gt/02.txt", 4661),
+        ("kitti_gt/05.txt", 2761),
+        ("kitti_gt/06.txt", 1101),
+        ("kitti_gt/08.txt", 4071),
+        ("kitti_orbslam2_vio/00_orbslam2_tum.txt", 4541),
+        ("kitti_orbslam2_vio/06_orbslam2_tum.txt", 1101),
+        ("gtsam_data/KittiGps_converted.txt", 470),
+        ("euroc/V102_groundtruth.csv", 16702),
+        ("carmen/fr079_odom.csv", 8951),
+        (GPX, 40),
+        ("evo/KITTI_00_ORB.txt", 4541),
+        ("evo/georeferenced.tum", 1000),
+        ("evo/fr2_desk_groundtruth.txt", 20957),
+        ("carmen/intel_odom.csv", 26915),
     ];
     for (name, count) in cases {
-        let traj = read_trajectory(&data(name), Format::Auto).unwrap();
+        let Some(path) = data(dir.path(), name) else {
+            continue;
+        };
+        let traj = read_trajectory(&path, Format::Auto).unwrap();
         assert_eq!(traj.len(), count, "{name}");
-        assert_eq!(traj.source, data(name).display().to_string());
+        assert_eq!(traj.source, path.display().to_string());
     }
 }
 
 #[test]
 fn kitti_positions_are_the_last_column_and_orientation_the_rotation_block() {
-    let traj = read_trajectory(&data("00.txt"), Format::Kitti).unwrap();
+    let Some(path) = common::shared("kitti_gt/00.txt") else {
+        return;
+    };
+    let traj = read_trajectory(&path, Format::Kitti).unwrap();
     for line in [1, 2, 1000, 4541] {
-        let v = numbers_of_line("00.txt", line);
+        let v = numbers_of_line(&path, line);
         let pose = &traj.poses[line - 1];
         assert_eq!(pose.position, Vector3::new(v[3], v[7], v[11]));
         assert_eq!(pose.t, None);
@@ -142,15 +177,25 @@ fn kitti_positions_are_the_last_column_and_orientation_the_rotation_block() {
 
 #[test]
 fn tum_timestamps_are_the_kitti_frame_times() {
-    let traj = read_trajectory(&data("00_orbslam2_tum.txt"), Format::Auto).unwrap();
-    let times = std::fs::read_to_string(data("00_times.txt")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let Some([tum, times]) = all(
+        dir.path(),
+        [
+            "kitti_orbslam2_vio/00_orbslam2_tum.txt",
+            "kitti_gt/00_times.txt",
+        ],
+    ) else {
+        return;
+    };
+    let traj = read_trajectory(&tum, Format::Auto).unwrap();
+    let times = std::fs::read_to_string(times).unwrap();
     let times: Vec<f64> = times.lines().map(|l| l.trim().parse().unwrap()).collect();
     assert_eq!(times.len(), traj.len());
     for (pose, t) in traj.poses.iter().zip(&times) {
         // The TUM file rounds to microseconds.
         assert!((pose.t.unwrap() - t).abs() < 1e-5);
     }
-    let v = numbers_of_line("00_orbslam2_tum.txt", 2);
+    let v = numbers_of_line(&tum, 2);
     let pose = &traj.poses[1];
     assert_eq!(pose.position, Vector3::new(v[1], v[2], v[3]));
     let q = pose.orientation.unwrap();
@@ -161,7 +206,10 @@ fn tum_timestamps_are_the_kitti_frame_times() {
 
 #[test]
 fn euroc_times_are_nanoseconds_and_quaternions_scalar_first() {
-    let traj = read_trajectory(&data("V102_groundtruth_head.csv"), Format::Auto).unwrap();
+    let Some(path) = common::shared("euroc/V102_groundtruth.csv") else {
+        return;
+    };
+    let traj = read_trajectory(&path, Format::Auto).unwrap();
     let first = &traj.poses[0];
     // 1403715524907143168 ns, line 2 of the file.
     assert!((first.t.unwrap() - 1_403_715_524.907_143).abs() < 1e-6);
@@ -181,11 +229,18 @@ fn euroc_times_are_nanoseconds_and_quaternions_scalar_first() {
 
 #[test]
 fn csv_reads_named_columns_and_ignores_the_others() {
-    let gps = read_trajectory(&data("KittiGps_converted.txt"), Format::Auto).unwrap();
-    let v = numbers_of_line("KittiGps_converted.txt", 2);
+    let dir = tempfile::tempdir().unwrap();
+    let Some([gps_path, odom_path]) = all(
+        dir.path(),
+        ["gtsam_data/KittiGps_converted.txt", "carmen/fr079_odom.csv"],
+    ) else {
+        return;
+    };
+    let gps = read_trajectory(&gps_path, Format::Auto).unwrap();
+    let v = numbers_of_line(&gps_path, 2);
     assert_eq!(gps.poses[0].t, Some(v[0]));
     assert_eq!(gps.poses[0].position, Vector3::new(v[1], v[2], v[3]));
-    let odom = read_trajectory(&data("fr079_odom.csv"), Format::Auto).unwrap();
+    let odom = read_trajectory(&odom_path, Format::Auto).unwrap();
     // theta is ignored and z is 0.
     assert_eq!(odom.poses[0].t, Some(1211.530144));
     assert_eq!(
@@ -223,12 +278,15 @@ fn xyz_accepts_two_or_three_columns_with_commas_or_spaces() {
 fn tum_round_trip_write_then_read_is_equal() {
     let dir = tempfile::tempdir().unwrap();
     for name in [
-        "06_orbslam2_tum.txt",
-        "06.txt",
-        "V102_groundtruth_head.csv",
-        "kitti_gps_head.gpx",
+        "kitti_orbslam2_vio/06_orbslam2_tum.txt",
+        "kitti_gt/06.txt",
+        "euroc/V102_groundtruth.csv",
+        GPX,
     ] {
-        let original = read_trajectory(&data(name), Format::Auto).unwrap();
+        let Some(path) = data(dir.path(), name) else {
+            continue;
+        };
+        let original = read_trajectory(&path, Format::Auto).unwrap();
         let out = dir.path().join("out.txt");
         write_tum(&out, &original).unwrap();
         let back = read_trajectory(&out, Format::Auto).unwrap();
@@ -246,7 +304,10 @@ fn tum_round_trip_write_then_read_is_equal() {
 
 #[test]
 fn write_tum_to_an_unwritable_path_is_an_io_error() {
-    let traj = read_trajectory(&data("06.txt"), Format::Kitti).unwrap();
+    let Some(path) = common::shared("kitti_gt/06.txt") else {
+        return;
+    };
+    let traj = read_trajectory(&path, Format::Kitti).unwrap();
     let err = write_tum(Path::new("/nonexistent-dir/x.txt"), &traj).unwrap_err();
     assert!(matches!(err, turnprint::Error::Io { .. }));
     assert!(err.to_string().starts_with("/nonexistent-dir/x.txt:"));
@@ -254,10 +315,15 @@ fn write_tum_to_an_unwritable_path_is_an_io_error() {
 
 #[test]
 fn gpx_track_comes_back_as_the_gps_positions_it_was_made_from() {
-    let gpx = read_trajectory(&data("kitti_gps_head.gpx"), Format::Auto).unwrap();
-    let first = numbers_of_line("KittiGps_converted.txt", 2);
+    let dir = tempfile::tempdir().unwrap();
+    let Some([gpx, gps]) = all(dir.path(), [GPX, "gtsam_data/KittiGps_converted.txt"]) else {
+        return;
+    };
+    let gpx = read_trajectory(&gpx, Format::Auto).unwrap();
+    assert_eq!(gpx.len(), 40);
+    let first = numbers_of_line(&gps, 2);
     for (i, pose) in gpx.poses.iter().enumerate() {
-        let row = numbers_of_line("KittiGps_converted.txt", i + 2);
+        let row = numbers_of_line(&gps, i + 2);
         let expected = Vector3::new(row[1] - first[1], row[2] - first[2], row[3] - first[3]);
         let error = (pose.position - expected).norm();
         assert!(error < 1e-3, "point {i}: {error} m");

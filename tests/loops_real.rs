@@ -1,10 +1,10 @@
 //! Loops on real paths that regressed or were fixed, named after the bug.
 
-use std::path::Path;
-
 use turnprint_eval::data::load_sequence;
 use turnprint_eval::drift::DriftModel;
 use turnprint_eval::{loops, Prepared, Source};
+
+mod common;
 
 /// KITTI 08's monocular ORB-SLAM2 estimate was never closed: its revisits
 /// lie about 90 steps from the earlier pass, in reverse, bent by scale
@@ -12,7 +12,14 @@ use turnprint_eval::{loops, Prepared, Source};
 /// drifting map's proximity probe must find both events.
 #[test]
 fn loops_find_both_revisits_of_the_unclosed_mono_08() {
-    let p = Prepared::new(load_sequence(Path::new("tests/data"), "08").expect("tests/data/08"));
+    let Some(dir) = common::shared_dir(&[
+        "kitti_gt/08.txt",
+        "kitti_gt/08_times.txt",
+        "kitti_orbslam2_vio/08_orbslam2_tum.txt",
+    ]) else {
+        return;
+    };
+    let p = Prepared::new(load_sequence(&dir, "08").expect("KITTI 08 loads"));
     assert_eq!(p.events.len(), 2, "{:?}", p.events);
     assert!(p.seq.mono.positions.len() > 4000);
     for seed in [3, 4] {

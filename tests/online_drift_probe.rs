@@ -5,14 +5,11 @@
 //! seven; on 08's monocular estimate, which ORB-SLAM2 never closed, none
 //! without it.
 
-use std::path::Path;
-
 use nalgebra::Vector3;
 use rand::SeedableRng;
+use turnprint::online::OnlineConfig;
 use turnprint_eval::data::load_sequence;
 use turnprint_eval::drift::DriftModel;
-use turnprint::io::{read_trajectory, Format};
-use turnprint::online::OnlineConfig;
 
 mod common;
 
@@ -31,16 +28,18 @@ fn correct_of(
     (correct, out.len())
 }
 
-/// KITTI ground truth `name` from `tests/data`, and the same through the
-/// strong drift model times `factor` (random walks seeded with `seed`).
-fn truth_and_drifted(name: &str, factor: f64, seed: u64) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
-    let path = format!("tests/data/{name}.txt");
-    let truth = read_trajectory(Path::new(&path), Format::Kitti)
-        .expect(&path)
-        .positions();
+/// KITTI ground truth `name` from the shared data, and the same through
+/// the strong drift model times `factor` (random walks seeded with `seed`);
+/// `None` after a line saying it is skipped.
+fn truth_and_drifted(
+    name: &str,
+    factor: f64,
+    seed: u64,
+) -> Option<(Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+    let truth = common::kitti_gt(name)?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let drifted = DriftModel::strong().scaled(factor).apply(&truth, &mut rng);
-    (truth, drifted)
+    Some((truth, drifted))
 }
 
 /// Asserts that the detector, with default settings, emits a candidate of
@@ -60,7 +59,9 @@ fn found_at(points: &[Vector3<f64>], truth: &[Vector3<f64>], frames: [usize; 2])
 
 #[test]
 fn drift_probe_finds_revisits_of_a_strongly_drifting_map() {
-    let (truth, drifted) = truth_and_drifted("08", 1.0, 2);
+    let Some((truth, drifted)) = truth_and_drifted("08", 1.0, 2) else {
+        return;
+    };
     let (without, _) = correct_of(&drifted, &truth, false);
     let (with, emitted) = correct_of(&drifted, &truth, true);
     // Without it, only the straight revisit that the drift left near (the
@@ -79,7 +80,14 @@ fn drift_probe_finds_revisits_of_a_strongly_drifting_map() {
 /// (`OnlineConfig::drift_min_score`).
 #[test]
 fn online_finds_a_revisit_of_the_unclosed_mono_08() {
-    let seq = load_sequence(Path::new("tests/data"), "08").expect("tests/data/08");
+    let Some(dir) = common::shared_dir(&[
+        "kitti_gt/08.txt",
+        "kitti_gt/08_times.txt",
+        "kitti_orbslam2_vio/08_orbslam2_tum.txt",
+    ]) else {
+        return;
+    };
+    let seq = load_sequence(&dir, "08").expect("KITTI 08 loads");
     let truth: Vec<Vector3<f64>> = seq
         .mono
         .frames
@@ -109,7 +117,9 @@ fn drift_probe_is_on_by_default() {
 /// points.
 #[test]
 fn a_slightly_drifted_revisit_grows_from_the_probe_fit() {
-    let (truth, drifted) = truth_and_drifted("00", 0.25, 2);
+    let Some((truth, drifted)) = truth_and_drifted("00", 0.25, 2) else {
+        return;
+    };
     found_at(&drifted, &truth, [1553, 1645]);
 }
 
@@ -123,7 +133,9 @@ fn a_slightly_drifted_revisit_grows_from_the_probe_fit() {
 /// and the drifting probe, which would have emitted it, never ran.
 #[test]
 fn a_straight_revisit_found_near_is_emitted() {
-    let (truth, drifted) = truth_and_drifted("08", 1.0, 2);
+    let Some((truth, drifted)) = truth_and_drifted("08", 1.0, 2) else {
+        return;
+    };
     found_at(&drifted[..1600], &truth, [1399, 1514]);
 }
 
@@ -137,7 +149,9 @@ fn a_straight_revisit_found_near_is_emitted() {
 /// (`proximity::consistent_start`).
 #[test]
 fn a_straight_revisit_turned_apart_grows_at_the_maps_scale() {
-    let (truth, drifted) = truth_and_drifted("08", 1.0, 34);
+    let Some((truth, drifted)) = truth_and_drifted("08", 1.0, 34) else {
+        return;
+    };
     found_at(&drifted[..1600], &truth, [1399, 1514]);
 }
 
@@ -149,6 +163,8 @@ fn a_straight_revisit_turned_apart_grows_at_the_maps_scale() {
 /// the stubs that rule is for (06's racetrack, 0.4-0.5), emits it.
 #[test]
 fn a_straight_revisit_bent_apart_is_long_enough_at_half_a_window() {
-    let (truth, drifted) = truth_and_drifted("08", 1.0, 40);
+    let Some((truth, drifted)) = truth_and_drifted("08", 1.0, 40) else {
+        return;
+    };
     found_at(&drifted[..1600], &truth, [1399, 1514]);
 }

@@ -5,13 +5,11 @@
 //! candidate that would have been emitted: streaming real paths with the
 //! gate on and off emits the same candidates.
 
-use std::path::Path;
-
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint_eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::OnlineConfig;
+use turnprint_eval::drift::DriftModel;
 
 mod common;
 
@@ -30,19 +28,29 @@ fn emitted(points: &[Vector3<f64>], prior_gate: bool) -> Vec<(usize, [usize; 2],
         .collect()
 }
 
-fn positions(name: &str) -> Vec<Vector3<f64>> {
-    read_trajectory(Path::new(&format!("tests/data/{name}")), Format::Auto)
-        .expect("fixture")
-        .positions()
+/// The positions of `name` (the shared data's layout), or `None` after a
+/// line saying it is skipped.
+fn positions(name: &str) -> Option<Vec<Vector3<f64>>> {
+    let path = common::shared(name)?;
+    Some(
+        read_trajectory(&path, Format::Auto)
+            .expect("the file reads")
+            .positions(),
+    )
 }
 
 #[test]
 fn the_prior_gate_keeps_every_emitted_candidate() {
-    let gt = positions("00.txt");
+    let (Some(gt), Some(mono)) = (
+        positions("kitti_gt/00.txt"),
+        positions("kitti_orbslam2_vio/00_orbslam2_tum.txt"),
+    ) else {
+        return;
+    };
     let mut rng = rand::rngs::StdRng::seed_from_u64(1);
     let inputs = [
         ("00 ground truth", gt.clone()),
-        ("00 ORB-SLAM2 mono", positions("00_orbslam2_tum.txt")),
+        ("00 ORB-SLAM2 mono", mono),
         ("00 strong drift", DriftModel::strong().apply(&gt, &mut rng)),
     ];
     for (name, points) in inputs {

@@ -2,8 +2,6 @@
 //! (see `online::guard`): out-of-order and duplicate timestamps, NaN, a
 //! single-pose glitch, a lasting jump, a long stop, and a full queue.
 
-use std::path::Path;
-
 use nalgebra::Vector3;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::frontend::{Frontend, Outbox};
@@ -11,10 +9,11 @@ use turnprint::online::{
     Detector, GuardCounts, OnlineConfig, Overflow, PoseInput, Pushed, Rejection,
 };
 
-fn kitti(name: &str) -> Vec<Vector3<f64>> {
-    read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Auto)
-        .unwrap()
-        .positions()
+mod common;
+
+/// KITTI ground truth `name`, or `None` after a line saying it is skipped.
+fn kitti(name: &str) -> Option<Vec<Vector3<f64>>> {
+    common::kitti_gt(name)
 }
 
 /// Runs positions through the frontend; returns the outbox and the counts.
@@ -88,7 +87,9 @@ fn timestamps_out_of_order_duplicate_and_nan_are_dropped_and_counted() {
 
 #[test]
 fn a_single_far_pose_is_dropped_as_a_glitch() {
-    let clean = kitti("06");
+    let Some(clean) = kitti("06") else {
+        return;
+    };
     let mut glitch = clean.clone();
     glitch[600] += Vector3::new(500.0, 0.0, 800.0);
     let (a, _) = front(&clean);
@@ -116,7 +117,9 @@ fn a_single_far_pose_is_dropped_as_a_glitch() {
 
 #[test]
 fn a_lasting_jump_is_removed_by_re_anchoring() {
-    let clean = kitti("06");
+    let Some(clean) = kitti("06") else {
+        return;
+    };
     let mut jumped = clean.clone();
     for p in jumped.iter_mut().skip(600) {
         *p += Vector3::new(300.0, 0.0, -700.0);
@@ -140,7 +143,9 @@ fn a_lasting_jump_is_removed_by_re_anchoring() {
 
 #[test]
 fn standing_still_for_a_long_time_adds_nothing() {
-    let clean = kitti("06");
+    let Some(clean) = kitti("06") else {
+        return;
+    };
     let mut stopped = clean[..500].to_vec();
     // 100 000 poses (about 3 hours at 10 Hz) at one place, with jitter of
     // 2 % of a typical step.
@@ -166,7 +171,9 @@ fn standing_still_for_a_long_time_adds_nothing() {
 /// what the queue held at once).
 #[test]
 fn a_full_queue_defers_and_skips_but_loses_no_sample() {
-    let points = kitti("00");
+    let Some(points) = kitti("00") else {
+        return;
+    };
     let run = |overflow: Overflow, capacity: usize, workers: usize| {
         let config = OnlineConfig {
             queue_capacity: capacity,
@@ -201,7 +208,9 @@ fn a_full_queue_defers_and_skips_but_loses_no_sample() {
 /// candidates must not depend on whether it ever did.
 #[test]
 fn a_replay_gives_the_same_candidates_whether_or_not_its_queue_filled() {
-    let points = kitti("00");
+    let Some(points) = kitti("00") else {
+        return;
+    };
     let run = |pause_every: Option<usize>| {
         let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
         for (i, p) in points.iter().enumerate() {
@@ -231,7 +240,9 @@ fn a_replay_gives_the_same_candidates_whether_or_not_its_queue_filled() {
 
 #[test]
 fn kitti_00_revisit_is_found_while_streaming() {
-    let points = kitti("00");
+    let Some(points) = kitti("00") else {
+        return;
+    };
     let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
     let mut found = Vec::new();
     for p in &points {
@@ -257,7 +268,9 @@ fn kitti_00_revisit_is_found_while_streaming() {
 
 #[test]
 fn candidates_carry_a_keyframe_pair_for_the_verifier() {
-    let points = kitti("00");
+    let Some(points) = kitti("00") else {
+        return;
+    };
     let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
     let mut found = Vec::new();
     for (i, p) in points.iter().enumerate() {
@@ -304,8 +317,14 @@ fn candidates_carry_a_keyframe_pair_for_the_verifier() {
 /// poses: 62 s; the batch path takes 1.4 s for all 26 915).
 #[test]
 fn turning_on_the_spot_during_warm_up_does_not_set_the_step() {
-    let path = Path::new("tests/data/intel_odom_2000.csv");
-    let points = read_trajectory(path, Format::Auto).unwrap().positions();
+    // The first 2000 poses of the Intel lab's wheel odometry: standing, a
+    // short drive, a turn on the spot, then driving.
+    let Some(path) = common::shared("carmen/intel_odom.csv") else {
+        return;
+    };
+    let mut points = read_trajectory(&path, Format::Auto).unwrap().positions();
+    points.truncate(2000);
+    assert_eq!(points.len(), 2000);
     let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
     for p in &points {
         d.push(&PoseInput::at(*p));
@@ -332,7 +351,9 @@ fn turning_on_the_spot_during_warm_up_does_not_set_the_step() {
 /// pose, 141 s for 6 791 poses. The turning must stay that of the road.
 #[test]
 fn speeding_up_tenfold_after_the_warm_up_adds_no_turning() {
-    let gt = kitti("00");
+    let Some(gt) = kitti("00") else {
+        return;
+    };
     let frames = 1200;
     let mut slow: Vec<Vector3<f64>> = Vec::new();
     for w in gt[..251].windows(2) {
@@ -356,7 +377,9 @@ fn speeding_up_tenfold_after_the_warm_up_adds_no_turning() {
 /// for motion, and the threshold is taken by distance covered.
 #[test]
 fn idling_with_jitter_for_minutes_before_driving_adds_no_turning() {
-    let gt = kitti("00");
+    let Some(gt) = kitti("00") else {
+        return;
+    };
     let frames = 1200;
     let mut state = 0x9e37_79b9_7f4a_7c15_u64;
     let mut jitter = || {

@@ -2,32 +2,34 @@
 //! probe's seed finds the earlier road but no candidate, the newest stretch
 //! is placed on everything driven before, not only on the one earlier pass.
 
-use std::path::Path;
-
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint_eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{OnlineConfig, Source};
+use turnprint_eval::drift::DriftModel;
 
 mod common;
 
-/// The KITTI ground truth `file` and the same under the strong drift
-/// model, `seed`.
-fn truth_and_drifted(file: &str, seed: u64) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
-    let truth = read_trajectory(Path::new(file), Format::Kitti)
+/// The KITTI ground truth `file` (the shared data's layout, e.g.
+/// `kitti_gt/00.txt`) and the same under the strong drift model, `seed`;
+/// `None` after a line saying it is skipped.
+fn truth_and_drifted(file: &str, seed: u64) -> Option<(Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+    let path = common::shared(file)?;
+    let truth = read_trajectory(&path, Format::Kitti)
         .expect(file)
         .positions();
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let drifted = DriftModel::strong().apply(&truth, &mut rng);
-    (truth, drifted)
+    Some((truth, drifted))
 }
 
 /// Whether the network registration places the revisit `frames` of the
 /// KITTI ground truth `file` under the strong drift model, `seed`
 /// (streaming the first `poses`).
 fn placed_on_the_network(file: &str, seed: u64, frames: [usize; 2], poses: usize) {
-    let (truth, drifted) = truth_and_drifted(file, seed);
+    let Some((truth, drifted)) = truth_and_drifted(file, seed) else {
+        return;
+    };
     let out = common::emitted_candidates(&drifted[..poses], OnlineConfig::default());
     let placed = out.iter().find(|c| {
         let h = &c.hypothesis;
@@ -45,7 +47,7 @@ fn placed_on_the_network(file: &str, seed: u64, frames: [usize; 2], poses: usize
 
 /// KITTI 00's first revisit (frames 1553-1645 over 112-207).
 fn first_revisit_placed_on_the_network(seed: u64) {
-    placed_on_the_network("tests/data/00.txt", seed, [1553, 1645], 1800);
+    placed_on_the_network("kitti_gt/00.txt", seed, [1553, 1645], 1800);
 }
 
 /// KITTI 00 under the strong drift model (seed 3). At its first revisit
@@ -87,7 +89,7 @@ fn a_window_turning_by_less_than_a_radian_is_registered() {
 /// (`probe::DRIFT_CELLS` cells beyond a quarter of the window).
 #[test]
 fn the_registration_looks_no_farther_than_the_drifting_probe() {
-    placed_on_the_network("tests/data/02.txt", 1, [4185, 4274], 4320);
+    placed_on_the_network("kitti_gt/02.txt", 1, [4185, 4274], 4320);
 }
 
 /// KITTI 05's revisit at frames 2568-2639 under seed 2: 70 m of a road
@@ -97,7 +99,7 @@ fn the_registration_looks_no_farther_than_the_drifting_probe() {
 /// along the road decide, and here the approach pins it.
 #[test]
 fn a_straight_window_is_registered_too() {
-    placed_on_the_network("tests/data/05.txt", 2, [2568, 2639], 2720);
+    placed_on_the_network("kitti_gt/05.txt", 2, [2568, 2639], 2720);
 }
 
 /// KITTI 00's long revisit (frames 3266-3854) under seed 3, drifted 30-130
@@ -107,7 +109,7 @@ fn a_straight_window_is_registered_too() {
 /// none of them placed it.
 #[test]
 fn a_placement_a_tenth_ahead_of_its_rival_is_emitted() {
-    placed_on_the_network("tests/data/00.txt", 3, [3266, 3854], 3420);
+    placed_on_the_network("kitti_gt/00.txt", 3, [3266, 3854], 3420);
 }
 
 /// KITTI 06's revisit at frames 829-1100 under seed 3: the racetrack's
@@ -118,7 +120,7 @@ fn a_placement_a_tenth_ahead_of_its_rival_is_emitted() {
 /// poses); it now runs wherever nothing reaches the shape candidates' cut.
 #[test]
 fn a_weak_candidate_does_not_stop_the_registration() {
-    placed_on_the_network("tests/data/06.txt", 3, [829, 1100], 1101);
+    placed_on_the_network("kitti_gt/06.txt", 3, [829, 1100], 1101);
 }
 
 /// KITTI 02's revisit at frames 4185-4274 under seed 32, drifted about 32
@@ -128,7 +130,7 @@ fn a_weak_candidate_does_not_stop_the_registration() {
 /// count for the registration without a seed (`probe::Probed::Roads`).
 #[test]
 fn roads_that_no_similarity_fits_are_registered() {
-    placed_on_the_network("tests/data/02.txt", 32, [4185, 4274], 4320);
+    placed_on_the_network("kitti_gt/02.txt", 32, [4185, 4274], 4320);
 }
 
 /// KITTI 05's revisit at frames 2322-2523 under seed 4, drifted about 80 m:
@@ -139,7 +141,7 @@ fn roads_that_no_similarity_fits_are_registered() {
 /// are right, 20 m apart along the road).
 #[test]
 fn a_placement_short_of_its_margin_is_emitted_with_its_rival() {
-    placed_on_the_network("tests/data/05.txt", 4, [2322, 2523], 2600);
+    placed_on_the_network("kitti_gt/05.txt", 4, [2322, 2523], 2600);
 }
 
 /// The rival place comes after the ranking of a segment's candidates, and
@@ -147,7 +149,9 @@ fn a_placement_short_of_its_margin_is_emitted_with_its_rival() {
 /// frame 2484): the placement and its rival count against `top_k` too.
 #[test]
 fn a_placement_and_its_rival_count_against_top_k() {
-    let (_, drifted) = truth_and_drifted("tests/data/05.txt", 4);
+    let Some((_, drifted)) = truth_and_drifted("kitti_gt/05.txt", 4) else {
+        return;
+    };
     let per_call = |top_k: usize| {
         let config = OnlineConfig {
             top_k,
@@ -174,7 +178,7 @@ fn a_placement_and_its_rival_count_against_top_k() {
 /// now grows with the path between the window and each sample.
 #[test]
 fn the_road_just_driven_does_not_take_the_registration() {
-    placed_on_the_network("tests/data/02.txt", 3, [4185, 4274], 4300);
+    placed_on_the_network("kitti_gt/02.txt", 3, [4185, 4274], 4300);
 }
 
 /// KITTI 00's last revisit (frames 4427-4540) under seed 4: the car joins
@@ -187,7 +191,7 @@ fn the_road_just_driven_does_not_take_the_registration() {
 /// (`register::OPEN_CREDIT`).
 #[test]
 fn a_return_to_the_first_road_is_not_held_against_the_map_before_it() {
-    placed_on_the_network("tests/data/00.txt", 4, [4427, 4540], 4541);
+    placed_on_the_network("kitti_gt/00.txt", 4, [4427, 4540], 4541);
 }
 
 /// The same revisit under seed 33: the start road lies within reach, but
@@ -197,7 +201,7 @@ fn a_return_to_the_first_road_is_not_held_against_the_map_before_it() {
 /// onto the first road agree on are now checked too.
 #[test]
 fn the_first_roads_best_vote_cells_are_checked() {
-    placed_on_the_network("tests/data/00.txt", 33, [4427, 4540], 4541);
+    placed_on_the_network("kitti_gt/00.txt", 33, [4427, 4540], 4541);
 }
 
 /// The same revisit under seed 2: the drifted map puts the start road
@@ -207,7 +211,7 @@ fn the_first_roads_best_vote_cells_are_checked() {
 /// as the prior reaches (`register::FIRST_ROAD`).
 #[test]
 fn the_first_road_is_searched_as_far_as_the_drift_prior_reaches() {
-    placed_on_the_network("tests/data/00.txt", 2, [4427, 4540], 4541);
+    placed_on_the_network("kitti_gt/00.txt", 2, [4427, 4540], 4541);
 }
 
 /// KITTI 06 under seed 19: on the racetrack's second lap the proximity
@@ -219,7 +223,7 @@ fn the_first_road_is_searched_as_far_as_the_drift_prior_reaches() {
 /// emitted wherever the margin is short.
 #[test]
 fn a_rival_beside_a_road_the_consistent_radius_found_is_emitted() {
-    placed_on_the_network("tests/data/06.txt", 19, [829, 1100], 1101);
+    placed_on_the_network("kitti_gt/06.txt", 19, [829, 1100], 1101);
 }
 
 /// KITTI 05 under seed 3: the later pass drives the start road north, goes
@@ -232,5 +236,5 @@ fn a_rival_beside_a_road_the_consistent_radius_found_is_emitted() {
 /// (`drift_path`), the mid pass is the placement.
 #[test]
 fn a_slide_the_path_between_does_not_explain_is_not_the_placement() {
-    placed_on_the_network("tests/data/05.txt", 3, [2568, 2639], 2761);
+    placed_on_the_network("kitti_gt/05.txt", 3, [2568, 2639], 2761);
 }

@@ -3,18 +3,24 @@
 //! parameters, within documented tolerances when it picks its own from the
 //! warm-up prefix.
 
-use std::path::Path;
-
 use nalgebra::Vector2;
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::frontend::{Frontend, Outbox, TrackParams};
 use turnprint::online::{GuardCounts, OnlineConfig};
 use turnprint::pipeline::{Config, PreparedPath};
 use turnprint::track::{ChordParam, Smoother};
+use turnprint::Trajectory;
 
-fn stream(name: &str, params: Option<TrackParams>) -> (PreparedPath, Outbox) {
-    let t = read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Auto).unwrap();
-    let batch = PreparedPath::new(&t, &Config::default()).unwrap();
+mod common;
+
+/// KITTI ground truth `name`, or `None` after a line saying it is skipped.
+fn kitti(name: &str) -> Option<Trajectory> {
+    let path = common::shared(&format!("kitti_gt/{name}.txt"))?;
+    Some(read_trajectory(&path, Format::Auto).unwrap())
+}
+
+fn stream(t: &Trajectory, params: Option<TrackParams>) -> (PreparedPath, Outbox) {
+    let batch = PreparedPath::new(t, &Config::default()).unwrap();
     let config = OnlineConfig {
         pipeline: Config::default(),
         ..OnlineConfig::default()
@@ -34,9 +40,8 @@ fn stream(name: &str, params: Option<TrackParams>) -> (PreparedPath, Outbox) {
     (batch, out)
 }
 
-fn batch_params(name: &str) -> TrackParams {
-    let t = read_trajectory(Path::new(&format!("tests/data/{name}.txt")), Format::Auto).unwrap();
-    let b = PreparedPath::new(&t, &Config::default()).unwrap();
+fn batch_params(t: &Trajectory) -> TrackParams {
+    let b = PreparedPath::new(t, &Config::default()).unwrap();
     let points: Vec<Vector2<f64>> = t.positions().iter().map(|p| b.plane.to_2d(p)).collect();
     let chord = ChordParam::new(&points).unwrap();
     TrackParams {
@@ -53,7 +58,10 @@ fn batch_params(name: &str) -> TrackParams {
 #[test]
 fn stream_with_batch_parameters_is_the_batch() {
     for name in ["00", "06"] {
-        let (batch, out) = stream(name, Some(batch_params(name)));
+        let Some(t) = kitti(name) else {
+            continue;
+        };
+        let (batch, out) = stream(&t, Some(batch_params(&t)));
         assert_eq!(out.grid.len(), batch.track.len(), "{name}: track samples");
         for (i, g) in out.grid.iter().enumerate() {
             assert_eq!(g.xy, batch.track.xy[i], "{name}: xy {i}");
@@ -76,7 +84,10 @@ fn stream_with_batch_parameters_is_the_batch() {
 #[test]
 fn stream_with_warmup_parameters_is_close_to_the_batch() {
     for name in ["00", "02", "05", "08", "06"] {
-        let (batch, out) = stream(name, None);
+        let Some(t) = kitti(name) else {
+            continue;
+        };
+        let (batch, out) = stream(&t, None);
         let k_batch = batch.signature.total();
         let k_stream = out.sig.len().saturating_sub(1) as f64 * batch.signature.dk;
         assert!(

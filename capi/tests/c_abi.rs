@@ -1,7 +1,9 @@
-//! The C ABI from real C, C++ and Python programs: `examples/vo_loop.cpp`,
-//! `tests/lost_track.c` and `tests/verify_keyframes.c` are compiled
-//! against `include/turnprint.h` and the static library cargo built for
-//! these tests, `examples/vo_loop.py` loads the shared one, then each runs.
+//! The C ABI from real C and C++ programs: `examples/vo_loop.cpp`,
+//! `tests/lost_track.c`, `tests/verify_keyframes.c` and
+//! `tests/merge_paths.c` are compiled against `include/turnprint.h` and the
+//! static library cargo built for these tests, then each runs. (Python has
+//! a package of its own, `crates/turnprint-python`, tested by
+//! `scripts/test_python.sh`.)
 //! Run them as a C caller builds the library, `cargo test --release -p
 //! turnprint-capi` (`scripts/test.sh` does), after the sidecar is built.
 
@@ -73,15 +75,6 @@ fn run(program: &Path, args: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("utf-8")
 }
 
-/// Runs a Python script of this crate (python3: `scripts/setup.sh`
-/// installs it) and returns its output.
-fn run_python(script: &str, args: &[&str]) -> String {
-    let script = manifest().join(script);
-    let mut all = vec![script.to_str().unwrap()];
-    all.extend_from_slice(args);
-    run(Path::new("python3"), &all)
-}
-
 const KITTI_00_MONO: &str = "../tests/data/00_orbslam2_tum.txt";
 
 #[test]
@@ -95,13 +88,8 @@ fn misuse_and_lost_poses_from_c_get_codes_and_messages_not_crashes() {
 /// from the same poses and keyframes (every fifth pose a keyframe; push
 /// waits for matching).
 fn rust_candidates(path: &Path) -> Vec<String> {
-    rust_candidates_with(path, OnlineConfig::default())
-}
-
-/// [`rust_candidates`] under `config`.
-fn rust_candidates_with(path: &Path, config: OnlineConfig) -> Vec<String> {
     let poses = turnprint::io::read_trajectory(path, turnprint::io::Format::Tum).unwrap();
-    let mut detector = Detector::new(config, Overflow::Block);
+    let mut detector = Detector::new(OnlineConfig::default(), Overflow::Block);
     let mut events = Vec::new();
     for (i, p) in poses.poses.iter().enumerate() {
         detector.push(&PoseInput {
@@ -145,17 +133,6 @@ fn candidate_lines(out: &str) -> Vec<&str> {
     out.lines().filter(|l| l.starts_with("candidate")).collect()
 }
 
-/// The `name=` field of a loop's summary line.
-fn summary_field(out: &str, name: &str) -> u64 {
-    let key = format!("{name}=");
-    out.lines()
-        .filter(|l| l.starts_with("summary"))
-        .flat_map(|l| l.split_whitespace())
-        .find_map(|w| w.strip_prefix(key.as_str()))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("no {name} in {out}"))
-}
-
 #[test]
 fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
     let program = compile_cpp("examples/vo_loop.cpp", "vo_loop");
@@ -164,92 +141,6 @@ fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
     let expected = rust_candidates(&path);
     assert!(expected.len() > 40, "{} candidates", expected.len());
     assert_eq!(candidate_lines(&out), expected);
-}
-
-#[test]
-fn the_python_vo_loop_gets_the_candidates_of_the_rust_detector() {
-    // ctypes on the shared library: the structures' layout as Python
-    // declares them must match the header's, or every field shifts.
-    let shared = library().with_extension("so");
-    let path = manifest().join(KITTI_00_MONO);
-    let out = run_python(
-        "examples/vo_loop.py",
-        &[
-            path.to_str().unwrap(),
-            "--wait",
-            "--lib",
-            shared.to_str().unwrap(),
-        ],
-    );
-    assert_eq!(candidate_lines(&out), rust_candidates(&path));
-    assert!(out
-        .lines()
-        .last()
-        .unwrap_or_default()
-        .starts_with("summary poses=4541 "));
-}
-
-#[test]
-fn every_setting_from_python_reaches_the_detector() {
-    // Each field of tp_options set away from its default, through ctypes
-    // and the C ABI: the candidates are those of the Rust detector under
-    // the same settings, and not those of the defaults.
-    let shared = library().with_extension("so");
-    let path = manifest().join(KITTI_00_MONO);
-    let settings = [
-        "top_k=2",
-        "min_score=0.2",
-        "drift_probe=0",
-        "drift_min_score=0.01",
-        "proximity=0",
-        "exclusion_turning=2.0",
-        "max_verify=4",
-        "queue_capacity=2",
-        "jump_factor=30.0",
-        "workers=2",
-    ];
-    let mut args = vec![
-        path.to_str().unwrap(),
-        "--wait",
-        "--lib",
-        shared.to_str().unwrap(),
-    ];
-    for s in &settings {
-        args.extend(["--set", s]);
-    }
-    let out = run_python("examples/vo_loop.py", &args);
-    let config = OnlineConfig {
-        top_k: 2,
-        min_score: 0.2,
-        drift_probe: false,
-        drift_min_score: 0.01,
-        proximity: false,
-        exclusion: turnprint::online::Exclusion::Turning(2.0),
-        max_verify: 4,
-        queue_capacity: 2,
-        jump_factor: 30.0,
-        workers: 2,
-        ..OnlineConfig::default()
-    };
-    let expected = rust_candidates_with(&path, config);
-    assert!(expected.len() >= 3, "{} candidates", expected.len());
-    assert_eq!(candidate_lines(&out), expected);
-    assert_ne!(expected, rust_candidates(&path));
-    // Only shape candidates: the proximity and drift probes are off.
-    assert!(expected.iter().all(|l| l.contains(" source=0 ")));
-    // The candidates and the history are the same with any number of
-    // matching threads; only two share batches out.
-    let one = args
-        .iter()
-        .map(|a| if *a == "workers=2" { "workers=1" } else { a });
-    let one = run_python("examples/vo_loop.py", &one.collect::<Vec<_>>());
-    assert_eq!(candidate_lines(&one), expected);
-    assert_eq!(
-        summary_field(&out, "history_bytes"),
-        summary_field(&one, "history_bytes")
-    );
-    assert_eq!(summary_field(&one, "parallel_batches"), 0);
-    assert!(summary_field(&out, "parallel_batches") > 0, "{out}");
 }
 
 #[test]
@@ -366,7 +257,7 @@ fn a_candidate_with_no_verifier_running_expires_from_c() {
     assert_eq!(out.trim(), "ok expired: verifier absent");
 }
 
-/// The lines `merge_paths.c` and `merge_paths.py` print for KITTI 00 mono
+/// The lines `merge_paths.c` prints for KITTI 00 mono
 /// onto its ground truth and the mono estimate's loops, made by the
 /// library itself (top 5 of each).
 fn library_merges_and_loops(gt: &Path, mono: &Path) -> Vec<String> {
@@ -420,27 +311,6 @@ fn whole_paths_from_c_give_the_librarys_merges_and_loops() {
         manifest().join(KITTI_00_MONO),
     );
     let out = run(&program, &[gt.to_str().unwrap(), mono.to_str().unwrap()]);
-    assert_eq!(
-        out.lines().collect::<Vec<_>>(),
-        library_merges_and_loops(&gt, &mono)
-    );
-}
-
-#[test]
-fn whole_paths_from_python_give_the_librarys_merges_and_loops() {
-    let (gt, mono) = (
-        manifest().join("../tests/data/00.txt"),
-        manifest().join(KITTI_00_MONO),
-    );
-    let shared = library().with_extension("so");
-    let out = run_python(
-        "tests/merge_paths.py",
-        &[
-            gt.to_str().unwrap(),
-            mono.to_str().unwrap(),
-            shared.to_str().unwrap(),
-        ],
-    );
     assert_eq!(
         out.lines().collect::<Vec<_>>(),
         library_merges_and_loops(&gt, &mono)

@@ -2,7 +2,9 @@
 //! first data line (and the `#` comment just before it, which may be a
 //! header).
 //!
-//! Rules, in order: extension `.gpx`/`.tum`/`.kitti`/`.xyz`; text starting
+//! Rules, in order: extension `.gpx`/`.tum`/`.kitti`/`.xyz`/`.mcap` (a file
+//! read whole is also an MCAP bag when it starts with the MCAP magic bytes,
+//! checked before the text is decoded); text starting
 //! with `<` is GPX; a first data line that is not all numbers is a CSV
 //! header; whitespace-separated numbers: 12 are KITTI, 8 are TUM, else a
 //! `#` header naming x and y makes it CSV, else 2-3 are xyz;
@@ -27,6 +29,7 @@ pub(super) fn detect(text: &str, path: &Path) -> Result<Format> {
         Some("tum") => return Ok(Format::Tum),
         Some("kitti") => return Ok(Format::Kitti),
         Some("xyz") => return Ok(Format::Xyz),
+        Some("mcap") => return Ok(Format::Mcap),
         _ => {}
     }
     sniff(text).map_err(|(line, message)| parse_error(path, line, message))

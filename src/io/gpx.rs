@@ -97,7 +97,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
     let mut seen_root = false;
     let mut point: Option<Point> = None;
     let mut field: Option<(Field, String, usize)> = None;
-    let mut geodetic: Vec<(Geodetic, Option<f64>)> = Vec::new();
+    let mut geodetic: Vec<Fix> = Vec::new();
     loop {
         let line = line_at(reader.buffer_position());
         let event = match reader.read_event() {
@@ -195,13 +195,36 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
     if !seen_root && !text.trim().is_empty() {
         return Err(parse_error(path, 1, "not a GPX file: no XML element"));
     }
-    let Some((origin, _)) = geodetic.first().copied() else {
+    let Some(origin) = geodetic.first().map(|f| f.at) else {
         return Ok(Vec::new());
     };
-    Ok(geodetic
+    geodetic
         .iter()
-        .map(|(g, t)| pose(*t, geodetic_to_enu(&origin, g), None))
-        .collect())
+        .map(|f| {
+            let enu = geodetic_to_enu(&origin, &f.at);
+            // Heights are only checked finite, so two far enough apart (a
+            // damaged `<ele>`) put the point past the largest f64 in metres.
+            if !enu.iter().all(|v| v.is_finite()) {
+                return Err(parse_error(
+                    path,
+                    f.height_line,
+                    format!(
+                        "elevation {:e} m is out of range: the point is not a finite distance in metres from the first ({:e} m)",
+                        f.at.height, origin.height
+                    ),
+                ));
+            }
+            Ok(pose(f.t, enu, None))
+        })
+        .collect()
+}
+
+/// A completed track point.
+struct Fix {
+    at: Geodetic,
+    t: Option<f64>,
+    /// The line of its `<ele>` (of the `<trkpt>` without one).
+    height_line: usize,
 }
 
 /// A track point from its start tag: `lat` and `lon` kept as text.
@@ -223,7 +246,7 @@ fn start_point(e: &BytesStart<'_>, line: usize, depth: usize) -> Point {
 }
 
 /// The geodetic position and time of a completed track point.
-fn finish_point(p: Point, path: &Path) -> Result<(Geodetic, Option<f64>)> {
+fn finish_point(p: Point, path: &Path) -> Result<Fix> {
     let coordinate = |value: &Option<String>, name: &str, limit: f64| {
         let Some(text) = value else {
             return Err(parse_error(path, p.line, format!("<trkpt> without {name}")));
@@ -273,14 +296,15 @@ fn finish_point(p: Point, path: &Path) -> Result<(Geodetic, Option<f64>)> {
             Some(seconds_since_epoch(text.trim()).map_err(|m| parse_error(path, *line, m))?)
         }
     };
-    Ok((
-        Geodetic {
+    Ok(Fix {
+        at: Geodetic {
             lat_deg,
             lon_deg,
             height,
         },
         t,
-    ))
+        height_line: p.ele.as_ref().map_or(p.line, |(_, line)| *line),
+    })
 }
 
 /// Seconds since the Unix epoch of an ISO 8601 / xsd:dateTime stamp; one

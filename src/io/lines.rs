@@ -12,6 +12,17 @@ use crate::{Error, Pose, Result};
 /// Why GPX cannot be streamed.
 const NO_GPX: &str = "GPX cannot be read line by line: give it as a file";
 
+/// Why an MCAP bag cannot be streamed.
+const NO_MCAP: &str = "an MCAP bag cannot be read line by line: give it as a file";
+
+/// Why `format`, which has no line reader, cannot be streamed.
+fn not_by_line(format: Format) -> &'static str {
+    match format {
+        Format::Mcap => NO_MCAP,
+        _ => NO_GPX,
+    }
+}
+
 /// A line-oriented trajectory read as its lines arrive.
 pub struct PoseLines {
     path: PathBuf,
@@ -28,10 +39,13 @@ pub struct PoseLines {
 
 impl PoseLines {
     /// A reader of `format` whose messages name `path` (`-` for stdin).
-    /// GPX is XML, not lines: an error.
+    /// GPX (XML) and MCAP (binary) are not lines: an error.
     pub fn new(format: Format, path: &Path) -> Result<PoseLines> {
-        if format == Format::Gpx {
-            return Err(Error::input(path.display().to_string(), NO_GPX));
+        if matches!(format, Format::Gpx | Format::Mcap) {
+            return Err(Error::input(
+                path.display().to_string(),
+                not_by_line(format),
+            ));
         }
         Ok(PoseLines {
             path: path.to_path_buf(),
@@ -70,8 +84,13 @@ impl PoseLines {
                 return Ok(None);
             }
             let text = format!("{}{content}", self.preamble);
-            let Some(reader) = line_format(detect::detect(&text, &self.path)?) else {
-                return Err(super::parse_error(&self.path, self.line, NO_GPX));
+            let format = detect::detect(&text, &self.path)?;
+            let Some(reader) = line_format(format) else {
+                return Err(super::parse_error(
+                    &self.path,
+                    self.line,
+                    not_by_line(format),
+                ));
             };
             self.reader = Some(reader);
             // The comments above, from line 1: no poses, but one may be a
@@ -164,6 +183,11 @@ mod tests {
         let err = poses_by_line("<gpx><trk>", Format::Auto).unwrap_err();
         assert!(err.to_string().contains("GPX"), "{err}");
         assert!(PoseLines::new(Format::Gpx, Path::new("-")).is_err());
+        let err = PoseLines::new(Format::Mcap, Path::new("-")).err().unwrap();
+        assert!(err.to_string().contains("MCAP"), "{err}");
+        let mut lines = PoseLines::new(Format::Auto, Path::new("bag.mcap")).unwrap();
+        let err = lines.push("0 1 2 3 0 0 0 1").unwrap_err();
+        assert!(err.to_string().contains("MCAP"), "{err}");
     }
 
     #[test]

@@ -1,9 +1,11 @@
 //! Reading trajectories from the file formats of `cli.md` ("Inputs") and
 //! writing them back as TUM.
 //!
-//! Every reader turns a whole file's text into a [`Trajectory`]; a line it
-//! cannot understand ends the read with [`Error::Parse`] naming the file and
-//! the 1-based line. Readers never panic, whatever the input.
+//! Every text reader turns a whole file's text into a [`Trajectory`]; a line
+//! it cannot understand ends the read with [`Error::Parse`] naming the file
+//! and the 1-based line. ROS 2 bags (MCAP, binary) give the poses of one
+//! topic ([`read_trajectory_topic`]; with the `mcap` feature). Readers never
+//! panic, whatever the input.
 
 mod csv;
 mod detect;
@@ -11,6 +13,8 @@ mod euroc;
 mod gpx;
 mod kitti;
 mod lines;
+#[cfg(feature = "mcap")]
+mod mcap;
 mod tum;
 mod writer;
 mod xyz;
@@ -21,6 +25,8 @@ use std::str::FromStr;
 
 use crate::{Error, Pose, Result, Trajectory};
 
+#[cfg(feature = "mcap")]
+pub use self::mcap::{read_mcap_bytes, RECORD_LIMIT};
 pub use gpx::{geodetic_to_enu, Geodetic};
 pub use lines::PoseLines;
 pub use writer::{write_tum, write_tum_to};
@@ -43,11 +49,21 @@ pub enum Format {
     Gpx,
     /// A CSV with a header naming its columns (`t`, `x`, `y`, `z`).
     Csv,
+    /// A ROS 2 bag in MCAP: the poses of one topic of one of the
+    /// [`MCAP_POSE_TYPES`], timed by their header stamps (`mcap` feature).
+    Mcap,
 }
+
+/// The ROS 2 message types a trajectory can be read from in an MCAP bag.
+pub const MCAP_POSE_TYPES: [&str; 3] = [
+    "nav_msgs/msg/Odometry",
+    "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/PoseWithCovarianceStamped",
+];
 
 impl Format {
     /// Every format, `Auto` first.
-    pub const ALL: [Format; 7] = [
+    pub const ALL: [Format; 8] = [
         Format::Auto,
         Format::Tum,
         Format::Kitti,
@@ -55,6 +71,7 @@ impl Format {
         Format::Xyz,
         Format::Gpx,
         Format::Csv,
+        Format::Mcap,
     ];
 
     /// The lowercase name used on the command line.
@@ -67,6 +84,7 @@ impl Format {
             Format::Xyz => "xyz",
             Format::Gpx => "gpx",
             Format::Csv => "csv",
+            Format::Mcap => "mcap",
         }
     }
 }
@@ -95,32 +113,100 @@ impl FromStr for Format {
     }
 }
 
-/// Reads the trajectory in `path`; `Format::Auto` detects the format.
+/// Reads the trajectory in `path`; `Format::Auto` detects the format. An
+/// MCAP bag must then hold exactly one pose topic: see
+/// [`read_trajectory_topic`].
 pub fn read_trajectory(path: &Path, format: Format) -> Result<Trajectory> {
+    read_trajectory_topic(path, format, None)
+}
+
+/// Reads the trajectory in `path`, from the MCAP bag's `topic` when given
+/// (`--topic`); `Format::Auto` detects the format (`.mcap`, or the MCAP
+/// magic bytes, is a bag).
+///
+/// Without a topic a bag must have exactly one topic of the
+/// [`MCAP_POSE_TYPES`], else the error names the pose topics there are; a
+/// topic absent from the bag is an error naming the topics present with
+/// their message types. Text formats have no topics: a topic given for one
+/// is an error.
+pub fn read_trajectory_topic(
+    path: &Path,
+    format: Format,
+    topic: Option<&str>,
+) -> Result<Trajectory> {
     let bytes = std::fs::read(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    parse_bytes(bytes, format, path)
+    parse_bytes(bytes, format, path, topic)
 }
 
 /// Reads a whole trajectory from `input` (stdin, say), named `name` in
 /// messages; `Format::Auto` detects the format from the content.
 pub fn read_trajectory_from(
+    input: impl std::io::Read,
+    name: &Path,
+    format: Format,
+) -> Result<Trajectory> {
+    read_trajectory_from_topic(input, name, format, None)
+}
+
+/// [`read_trajectory_topic`] for a whole file read from `input` (stdin,
+/// say), named `name` in messages.
+pub fn read_trajectory_from_topic(
     mut input: impl std::io::Read,
     name: &Path,
     format: Format,
+    topic: Option<&str>,
 ) -> Result<Trajectory> {
     let mut bytes = Vec::new();
     input.read_to_end(&mut bytes).map_err(|source| Error::Io {
         path: name.to_path_buf(),
         source,
     })?;
-    parse_bytes(bytes, format, name)
+    parse_bytes(bytes, format, name, topic)
 }
 
-/// Parses a whole file's bytes, which must be UTF-8 text.
-fn parse_bytes(bytes: Vec<u8>, format: Format, path: &Path) -> Result<Trajectory> {
+/// Whether `Format::Auto` takes the file at `path` holding `bytes` for an
+/// MCAP bag: by extension, else by its magic bytes (a bag on stdin).
+fn is_mcap(bytes: &[u8], path: &Path) -> bool {
+    bytes.starts_with(b"\x89MCAP")
+        || path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+}
+
+/// Reads the MCAP bag in `bytes`.
+#[cfg(feature = "mcap")]
+fn read_mcap(bytes: &[u8], topic: Option<&str>, path: &Path) -> Result<Trajectory> {
+    mcap::read(bytes, topic, &path.display().to_string())
+}
+
+/// Without the `mcap` feature: an error saying so.
+#[cfg(not(feature = "mcap"))]
+fn read_mcap(_: &[u8], _: Option<&str>, path: &Path) -> Result<Trajectory> {
+    Err(Error::input(
+        path.display().to_string(),
+        "reading MCAP bags needs turnprint built with the `mcap` feature",
+    ))
+}
+
+/// Parses a whole file's bytes: an MCAP bag, else UTF-8 text.
+fn parse_bytes(
+    bytes: Vec<u8>,
+    format: Format,
+    path: &Path,
+    topic: Option<&str>,
+) -> Result<Trajectory> {
+    if format == Format::Mcap || (format == Format::Auto && is_mcap(&bytes, path)) {
+        return read_mcap(&bytes, topic, path);
+    }
+    if let Some(topic) = topic {
+        return Err(Error::input(
+            path.display().to_string(),
+            format!("topic '{topic}' given, but only MCAP bags have topics"),
+        ));
+    }
     let text = match String::from_utf8(bytes) {
         Ok(text) => text,
         Err(e) => {
@@ -145,6 +231,9 @@ pub fn parse_trajectory(text: &str, format: Format, path: &Path) -> Result<Traje
         Format::Auto => detect::detect(text, path)?,
         f => f,
     };
+    if format == Format::Mcap {
+        return Err(Error::input(path.display().to_string(), NO_MCAP_TEXT));
+    }
     let poses = match line_format(format) {
         Some(mut reader) => {
             let mut poses = Vec::new();
@@ -153,7 +242,7 @@ pub fn parse_trajectory(text: &str, format: Format, path: &Path) -> Result<Traje
             }
             poses
         }
-        // GPX (detection never answers `Auto`).
+        // GPX (detection never answers `Auto`; MCAP returned above).
         None => gpx::parse(text, path)?,
     };
     if poses.is_empty() {
@@ -166,6 +255,10 @@ pub fn parse_trajectory(text: &str, format: Format, path: &Path) -> Result<Traje
     })
 }
 
+/// Why an MCAP bag cannot be parsed from text.
+const NO_MCAP_TEXT: &str =
+    "an MCAP bag is binary, not text: read it as a file (read_trajectory_topic)";
+
 /// A line-oriented format read one non-blank, trimmed line at a time (`#`
 /// lines included: a CSV header may be one), so that whole files and
 /// streams ([`PoseLines`]) share one parser.
@@ -175,8 +268,8 @@ trait LineFormat: Send {
     fn line(&mut self, line: usize, content: &str, path: &Path) -> Result<Option<Pose>>;
 }
 
-/// The line reader of `format`; `None` for GPX (XML, read whole) and for
-/// `Auto` (not yet decided).
+/// The line reader of `format`; `None` for GPX (XML, read whole), MCAP
+/// (binary) and `Auto` (not yet decided).
 fn line_format(format: Format) -> Option<Box<dyn LineFormat>> {
     match format {
         Format::Tum => Some(Box::new(tum::Tum)),
@@ -184,7 +277,7 @@ fn line_format(format: Format) -> Option<Box<dyn LineFormat>> {
         Format::Euroc => Some(Box::new(euroc::Euroc)),
         Format::Xyz => Some(Box::new(xyz::Xyz::default())),
         Format::Csv => Some(Box::new(csv::Csv::default())),
-        Format::Gpx | Format::Auto => None,
+        Format::Gpx | Format::Mcap | Format::Auto => None,
     }
 }
 

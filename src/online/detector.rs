@@ -439,6 +439,8 @@ impl Detector {
 
     /// Ends the stream: finalises the last samples and segments, waits for
     /// the worker, and returns the remaining candidates and the summary.
+    // Only the correction, a feature, is taken out of `self` here.
+    #[cfg_attr(not(feature = "correct"), allow(unused_mut))]
     pub fn finish(mut self) -> (Vec<CandidateEvent>, Summary) {
         // A correction nobody will read ends with its thread's current solve.
         #[cfg(feature = "correct")]

@@ -218,7 +218,12 @@ impl HistoryView<'_> {
         if g1 < g0 + 3 {
             return None;
         }
-        let xy: Vec<Vector2<f64>> = (g0..=g1).map(|i| self.point(i)).collect();
+        // Over the slice rather than by index: the copy vectorises, without
+        // a bounds check per sample (windows span tens of thousands).
+        let xy: Vec<Vector2<f64>> = self.xy[g0..=g1]
+            .iter()
+            .map(|p| Vector2::new(p[0] as f64, p[1] as f64))
+            .collect();
         let track = Track {
             s: self.s[g0..=g1].to_vec(),
             // Verification never reads the heading: leaving it out saves an

@@ -20,30 +20,10 @@ const REGISTER_PERIODS: usize = 4;
 /// well, most often a straight slid along its road by a quarter of the
 /// window or more ([`register::RIVAL_BANDS`]): the drift prior cannot tell
 /// such places apart, so both are grown and emitted, and the verifier's
-/// keyframes tell which one is right
-/// (seventeenth session, where the probe found the road only with the
-/// drifting map's radius: strong drift, seeds 1-40, 366 -> 382 of 440
-/// events, 5000 -> 6232 candidates, share 0.38 -> 0.35; seeds 41-80, held
-/// out, 358 -> 368; ground truth 164 -> 193 candidates, the same 11 events,
-/// share 0.74 -> 0.64). Where the consistent map's radius found it, the
-/// window was left to the later windows until the twenty-sixth session:
-/// there both places were often look-alikes beside the road, such as the
-/// other straight of KITTI 06's racetrack 16 m away in the loop-closed
-/// monocular estimate, which the verifier's omnidirectional cameras
-/// confirmed, as they see the same buildings (regression `stream_verify`;
-/// emitting both there too then: 387 of 440, and 375 held out). With the
-/// later rules on drifting candidates (`search::emitted`: the scale, and
-/// at least half a probe window long) `stream_verify` passes with both
-/// emitted there too, and the monocular rows are the same; on a drifting
-/// map the consistent radius finds the road only because the drift
-/// happens to be small there. So both are emitted wherever the probe found
-/// the road: strong drift 406 -> 409 of 440 over seeds 1-40 and 391 -> 396
-/// held out (06's racetrack, 00's last revisit, 05's shared straight; none
-/// lost), ground truth 195 -> 201 candidates (share 0.62 -> 0.61), the
-/// same events everywhere. 1.1 since the fifteenth session (against 1.2,
-/// strong drift 320 -> 338 of 440 events; at 1.3, 290); with no margin at
-/// all, the best place alone, 279 of 320 placements on the strong-drift
-/// runs were wrong (thirteenth session).
+/// keyframes tell which one is right. 1.1: at 1.2 and 1.3 fewer
+/// strong-drift events are found (320 and 290 of 440 against 338 at 1.1,
+/// seeds 1-40), and with no margin at all the best place alone was wrong
+/// in most strong-drift placements (279 of 320).
 pub const REGISTER_MARGIN: f64 = 1.1;
 /// Probe periods between two network registrations at least: a segment's
 /// end and a periodic probe can come a few samples apart, and their windows
@@ -87,11 +67,10 @@ pub fn register_newest(
     }
     // Every window is placed, straight or turning: a straight slides along
     // its road, and its rival places along the road hold its margin near 1
-    // (`register::RIVAL_BANDS`). A gate on the window's turning (half a
-    // radian until the fifteenth session) saved registrations that the
-    // narrower reach now pays for: KITTI 00's ground truth 13 -> 22 calls,
-    // 172.7 M -> 187.1 M worker instructions (the fourteenth session's
-    // 186.5 M); strong drift, seeds 1-40, 296 -> 320 of 440.
+    // (`register::RIVAL_BANDS`). A gate on the window's turning would save
+    // registrations (KITTI 00's ground truth: 13 calls instead of 22, 8 %
+    // of the worker's instructions) but loses strong-drift events (296
+    // instead of 320 of 440, seeds 1-40).
     // The drift prior's reach at the probed roads' distance.
     let between = (h.s[g0] - h.s[probed.target()]).max(0.0);
     let bounds = register::Bounds::of_drift(

@@ -77,6 +77,12 @@ impl Frame {
     }
 }
 
+/// Relative margin, on the arc lengths compared, by which two windows must
+/// lie apart for [`apart`] to answer without interpolating: far above the
+/// few units in the last place (about 1e-16 each) that the interpolation and
+/// the difference round by, far below any gap between windows.
+const APART_MARGIN: f64 = 1e-9;
+
 /// Whether track sample `g` of the query window `qw` and fractional track
 /// sample `v` of the target window `tw` lie more than `length` apart along
 /// the path: the query's own neighbourhood is no revisit.
@@ -86,9 +92,20 @@ fn apart<'a>(
     tw: &'a Window,
     length: f64,
 ) -> impl Fn(usize, f64) -> bool + 'a {
+    // Growth asks this of most target segments it looks at, and a revisit's
+    // two windows usually lie apart as wholes: then every pair does (arc
+    // length never decreases, and `v` stays on the target window), and the
+    // answer is known without the interpolation.
+    let span = |w: &Window| (h.s[w.grid0], h.s[w.grid0 + w.path.track.s.len() - 1]);
+    let ((q_lo, q_hi), (t_lo, t_hi)) = (span(qw), span(tw));
+    let margin = APART_MARGIN * (q_hi.abs() + t_hi.abs() + length.abs());
+    let gap = (q_lo - t_hi).max(t_lo - q_hi);
+    let always = gap > length + margin;
     move |g, v| {
-        let st = crate::track::Track::interp(h.s, v + tw.grid0 as f64);
-        (h.s[g + qw.grid0] - st).abs() > length
+        always || {
+            let st = crate::track::Track::interp(h.s, v + tw.grid0 as f64);
+            (h.s[g + qw.grid0] - st).abs() > length
+        }
     }
 }
 
@@ -330,21 +347,30 @@ pub fn verify_all(
     seed: Option<&ProximitySeed>,
     config: &OnlineConfig,
 ) -> Vec<Found> {
+    let mut query_windows = Vec::new();
     let mut found: Vec<Found> = shape
         .iter()
-        .filter_map(|cand| verify_shape(h, frame, cand, config))
+        .filter_map(|cand| verify_shape(h, frame, cand, config, &mut query_windows))
         .collect();
     found.extend(seed.and_then(|seed| grow_seed(h, frame, seed, config)));
     found.retain(|f| emitted(f, config, frame.step));
     rank(found, config.top_k, f64::NEG_INFINITY, Duplicates::Place)
 }
 
+/// The query windows cut so far for one segment's candidates, by track
+/// sample range.
+type QueryWindows = Vec<([usize; 2], Option<Window>)>;
+
 /// One shape candidate verified and scored, if it may pass the cut.
+/// `query_windows` keeps the query windows cut for the candidates before:
+/// the candidates of one segment often share their query, whose window is
+/// as costly to cut as the target's.
 fn verify_shape(
     h: &HistoryView,
     frame: &Frame,
     cand: &Candidate,
     config: &OnlineConfig,
+    query_windows: &mut QueryWindows,
 ) -> Option<Found> {
     let pc = &config.pipeline;
     let dk = pc.signature.dk;
@@ -391,7 +417,15 @@ fn verify_shape(
     if !pre_gate(h, cand, pc, |sim, pairs| may_pass(sim, pairs, 2.0)) {
         return None;
     }
-    let qw = window(gq0.saturating_sub(room), gq1 + room)?;
+    let q_range = [gq0.saturating_sub(room), gq1 + room];
+    let at = match query_windows.iter().position(|(r, _)| *r == q_range) {
+        Some(at) => at,
+        None => {
+            query_windows.push((q_range, window(q_range[0], q_range[1])));
+            query_windows.len() - 1
+        }
+    };
+    let qw = query_windows[at].1.as_ref()?;
     let tw = window(gt0.saturating_sub(room), gt1 + room)?;
     let (qs, ts) = (qw.sig0 as i64, tw.sig0 as i64);
     let local = Candidate {
@@ -407,7 +441,7 @@ fn verify_shape(
     if local.query[1] >= qw.path.signature.len() {
         return None;
     }
-    let allowed = apart(h, &qw, &tw, seed_len);
+    let allowed = apart(h, qw, &tw, seed_len);
     let xy = qw.path.points(false);
     // Most shape candidates are look-alikes far from identity whose
     // drift prior alone keeps them below the cut: known from the RANSAC
@@ -417,7 +451,7 @@ fn verify_shape(
     // Of the rest, look-alikes show after the first grow round: scored as
     // they stand then, they lie far below the cut, true revisits near it.
     let promising = |v: &Verified| {
-        finish(h, &tw, &qw, v, frame, config, Source::Shape)
+        finish(h, &tw, qw, v, frame, config, Source::Shape)
             .is_some_and(|f| f.hypothesis.score >= FIRST_ROUND_CUT * config.min_score)
     };
     let promising: Option<&dyn Fn(&Verified) -> bool> = match config.prior_gate {
@@ -427,7 +461,7 @@ fn verify_shape(
     let v = verify::verify(
         &tw.path, &qw.path, &xy, &local, pc, &allowed, &gate, promising,
     )?;
-    finish(h, &tw, &qw, &v, frame, config, Source::Shape)
+    finish(h, &tw, qw, &v, frame, config, Source::Shape)
 }
 
 /// The proximity probe's seed grown and scored, if it may pass the cut.
@@ -678,4 +712,65 @@ fn finish(
         source,
         drift_path,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The answer known from the windows' spans is the interpolated one for
+    /// every pair: windows far apart, overlapping, and apart by about the
+    /// length itself (where only the interpolation can tell).
+    #[test]
+    fn apart_answers_as_the_interpolation() {
+        let mut h = History::default();
+        let mut s = 1e4;
+        for i in 0..3000u32 {
+            let t = i as f64 * 0.01;
+            h.xy.push([(40.0 * t.cos()) as f32, (25.0 * (1.3 * t).sin()) as f32]);
+            h.s.push(s);
+            // Uneven steps, a stop among them: arc length only never
+            // decreases.
+            s += if i % 97 == 0 {
+                0.0
+            } else {
+                0.4 + 0.3 * (0.7 * t).sin().abs()
+            };
+            h.curvature.push(0.0);
+            h.pose.push(i);
+        }
+        h.index_new_samples();
+        let points: Vec<_> = (0..50)
+            .map(|i| nalgebra::Vector3::new(i as f64, (i * i % 7) as f64, 0.0))
+            .collect();
+        let frame = Frame {
+            plane: Plane::fit(&points),
+            step: 0.5,
+            bandwidth: 1.0,
+            poses: 3000,
+        };
+        let view = h.now();
+        let exact = |qw: &Window, tw: &Window, length: f64, g: usize, v: f64| {
+            let st = crate::track::Track::interp(view.s, v + tw.grid0 as f64);
+            (view.s[g + qw.grid0] - st).abs() > length
+        };
+        let qw = frame.window(&view, 2400, 2900, 1.0).expect("query window");
+        for (t0, t1) in [(100, 600), (1800, 2300), (2200, 2700), (2600, 2999)] {
+            let tw = frame.window(&view, t0, t1, 1.0).expect("target window");
+            let gap = view.s[2400] - view.s[t1];
+            for length in [10.0, 0.5 * gap.abs(), gap.abs(), gap.abs() + 0.2, 2e3] {
+                let allowed = apart(&view, &qw, &tw, length);
+                for g in (0..qw.path.track.s.len()).step_by(7) {
+                    for k in 0..=400 {
+                        let v = k as f64 / 400.0 * (tw.path.track.s.len() - 1) as f64;
+                        assert_eq!(
+                            allowed(g, v),
+                            exact(&qw, &tw, length, g, v),
+                            "target {t0}..{t1}, length {length}, g {g}, v {v}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 }

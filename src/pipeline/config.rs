@@ -66,9 +66,8 @@ impl Default for Config {
             query: QueryConfig::default(),
             ransac_threshold: 0.04,
             ransac_iterations: 64,
-            // The textbook 0.999: on the online seeds (about 60 pairs, 55 %
-            // inliers) 20-odd hypotheses instead of 64, 4 % of the
-            // detector's matching work (twenty-first session).
+            // The textbook 0.999: with about 60 pairs at 55 % inliers it
+            // stops after 20-odd hypotheses instead of 64.
             ransac_confidence: 0.999,
             grow: GrowConfig::default(),
             turns: TurnConfig::default(),

@@ -1,7 +1,9 @@
 //! The parts of the `turnprint` command that are more than argument
-//! parsing: figures ([`plot`]), `stream` replays and stdin ([`stream`]), and
-//! `stream --verify` with the visual verifier sidecar ([`sidecar`]).
+//! parsing: reading its inputs ([`input`]), figures ([`plot`]), `stream`
+//! replays and stdin ([`stream`]), and `stream --verify` with the visual
+//! verifier sidecar ([`sidecar`]).
 
+pub mod input;
 pub mod plot;
 pub mod sidecar;
 pub mod stream;

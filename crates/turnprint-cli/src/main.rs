@@ -9,7 +9,7 @@ use std::time::Duration;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::json;
-use turnprint::io::{read_trajectory, write_tum, Format};
+use turnprint::io::{write_tum, Format};
 use turnprint::pipeline::{self, PreparedPath};
 use turnprint::{Config, Hypothesis, Trajectory};
 
@@ -23,7 +23,15 @@ use turnprint::{Config, Hypothesis, Trajectory};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// ROS 2 bags (`.mcap`, `--format mcap`): the topic to read
+    /// (nav_msgs/Odometry, geometry_msgs/PoseStamped or
+    /// PoseWithCovarianceStamped); default: the bag's only pose topic.
+    #[arg(long, global = true, value_name = "NAME")]
+    topic: Option<String>,
 }
+
+/// `--topic`, set once from the command line before any input is read.
+static TOPIC: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
 
 #[derive(Subcommand)]
 enum Command {
@@ -39,7 +47,7 @@ enum Command {
         /// Hypotheses to report.
         #[arg(long, default_value_t = 5)]
         top: usize,
-        /// Input format of both files (auto, tum, kitti, euroc, xyz, gpx, csv).
+        /// Input format of both files (auto, tum, kitti, euroc, xyz, gpx, csv, mcap).
         #[arg(long, default_value = "auto")]
         format: Format,
         /// Input format of B, when it differs from A's.
@@ -56,7 +64,7 @@ enum Command {
         /// Loops to report.
         #[arg(long, default_value_t = 10)]
         top: usize,
-        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv).
+        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv, mcap).
         #[arg(long, default_value = "auto")]
         format: Format,
         /// Turn the within-map drift prior off (shape and geometry only).
@@ -91,7 +99,7 @@ enum Command {
         /// rejected (SVG or PNG by extension).
         #[arg(long)]
         plot: Option<PathBuf>,
-        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv).
+        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv, mcap).
         #[arg(long, default_value = "auto")]
         format: Format,
         /// Node group: auto (Sim3 when the loops' scales drift), se3 or sim3.
@@ -137,7 +145,7 @@ enum Command {
         /// Candidates per finalised segment.
         #[arg(long, default_value_t = 3)]
         top: usize,
-        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv).
+        /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv, mcap).
         #[arg(long, default_value = "auto")]
         format: Format,
         /// Start the visual verifier sidecar and verify every candidate on
@@ -192,6 +200,7 @@ fn group(s: &str) -> Result<turnprint::correct::Group, String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let _ = TOPIC.set(cli.topic.clone());
     let result = match cli.command {
         Command::Match {
             a,
@@ -375,15 +384,10 @@ impl Drop for Progress {
     }
 }
 
-/// The trajectory in `path`, or on stdin for `-`.
+/// The trajectory in `path`, or on stdin for `-` (`--topic` for bags).
 fn read(path: &Path, format: Format) -> Result<Trajectory, String> {
-    if path == Path::new("-") {
-        let stdin = std::io::stdin().lock();
-        turnprint::io::read_trajectory_from(stdin, Path::new("<stdin>"), format)
-    } else {
-        read_trajectory(path, format)
-    }
-    .map_err(|e| e.to_string())
+    let topic = TOPIC.get().and_then(|t| t.as_deref());
+    turnprint_cli::input::read(path, format, topic).map_err(|e| e.to_string())
 }
 
 fn prepare(t: &Trajectory, config: &Config) -> Result<PreparedPath, String> {
@@ -690,7 +694,9 @@ fn run_stream(
         let stdin = std::io::BufReader::new(std::io::stdin());
         turnprint_cli::stream::stream_lines(stdin, "<stdin>", format, config, correct, &mut out)?;
     } else {
-        turnprint_cli::stream::stream(a, format, config, correct, &mut out)?;
+        let trajectory = read(a, format)?;
+        let name = a.display().to_string();
+        turnprint_cli::stream::stream_trajectory(&trajectory, &name, config, correct, &mut out)?;
     }
     Ok(())
 }
@@ -728,6 +734,7 @@ fn run_stream_verified(
         cameras,
         plot,
         correct,
+        topic: TOPIC.get().cloned().flatten(),
         ..VerifyOptions::default()
     };
     let mut stdout = std::io::stdout().lock();

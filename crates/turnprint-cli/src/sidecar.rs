@@ -51,6 +51,8 @@ pub struct VerifyOptions {
     pub plot: Option<PathBuf>,
     /// Keep a drift-corrected path with the confirmed loops and write it here as TUM at the end.
     pub correct: Option<PathBuf>,
+    /// The topic to read when the path is a ROS 2 bag (`--topic`).
+    pub topic: Option<String>,
 }
 
 impl Default for VerifyOptions {
@@ -65,6 +67,7 @@ impl Default for VerifyOptions {
             verifier: None,
             plot: None,
             correct: None,
+            topic: None,
         }
     }
 }
@@ -160,7 +163,7 @@ pub fn stream_verified(
     out: &mut dyn Write,
 ) -> Result<VerifySummary> {
     let started = Instant::now();
-    let input = read_trajectory(path, format)?;
+    let input = crate::input::read(path, format, options.topic.as_deref())?;
     let truth = match &options.truth {
         Some(t) => read_trajectory(t, Format::Auto)?,
         None => input.clone(),

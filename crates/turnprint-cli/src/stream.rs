@@ -17,7 +17,7 @@ use serde_json::json;
 use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput, Summary};
 use turnprint::io::{read_trajectory, Format, PoseLines};
 use turnprint::pipeline::prepare::MIN_POSES;
-use turnprint::{Error, Pose, Result};
+use turnprint::{Error, Pose, Result, Trajectory};
 
 /// How often events are collected while stdin has no new line.
 const IDLE_POLL: Duration = Duration::from_millis(20);
@@ -35,16 +35,26 @@ pub fn stream(
     out: &mut dyn Write,
 ) -> Result<Summary> {
     let trajectory = read_trajectory(path, format)?;
-    let name = path.display().to_string();
+    stream_trajectory(&trajectory, &path.display().to_string(), config, correct, out)
+}
+
+/// [`stream`] of a trajectory already read (named `name` in messages).
+pub fn stream_trajectory(
+    trajectory: &Trajectory,
+    name: &str,
+    config: &OnlineConfig,
+    correct: Option<&Path>,
+    out: &mut dyn Write,
+) -> Result<Summary> {
     if trajectory.len() < MIN_POSES {
-        return Err(too_few(&name, trajectory.len()));
+        return Err(too_few(name, trajectory.len()));
     }
     let mut detector = detector(config, correct)?;
     for pose in &trajectory.poses {
         push(&mut detector, pose);
         write_events(&mut detector, out)?;
     }
-    finish(detector, &name, correct, out)
+    finish(detector, name, correct, out)
 }
 
 /// Streams the poses of `input`'s lines (named `name` in messages) as they

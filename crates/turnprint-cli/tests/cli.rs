@@ -7,6 +7,8 @@ use std::process::{Command, Output};
 
 mod common;
 
+use common::data;
+
 fn turnprint(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_turnprint"))
         .args(args)
@@ -49,28 +51,33 @@ fn assert_clean_error(out: &Output, file: &Path, line: Option<usize>) {
     }
 }
 
-fn straight_then_turns(n: usize) -> String {
-    // A real-looking planar path: KITTI 06's first poses, as xyz.
-    let kitti = std::fs::read_to_string("tests/data/06.txt").unwrap();
-    kitti
+/// A real-looking planar path: KITTI 06's first `n` poses, as xyz (`None`
+/// when the data is absent).
+fn straight_then_turns(n: usize) -> Option<String> {
+    let kitti = std::fs::read_to_string(data("kitti_gt/06.txt")?).unwrap();
+    let text = kitti
         .lines()
         .take(n)
         .map(|l| {
             let v: Vec<&str> = l.split_whitespace().collect();
             format!("{} {} {}\n", v[3], v[7], v[11])
         })
-        .collect()
+        .collect();
+    Some(text)
 }
 
 #[test]
 fn empty_file() {
+    let Some(kitti06) = data("kitti_gt/06.txt") else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let a = write(dir.path(), "empty.xyz", "");
     for cmd in [vec!["loops"], vec!["match"]] {
         let mut args: Vec<&str> = cmd.clone();
         args.push(a.to_str().unwrap());
         if cmd[0] == "match" {
-            args.push("tests/data/06.txt");
+            args.push(&kitti06);
         }
         assert_clean_error(&turnprint(&args), &a, None);
     }
@@ -89,14 +96,16 @@ fn too_few_poses() {
 
 #[test]
 fn nan_and_inf_name_their_line() {
+    let (Some(kitti06), Some(mut text)) = (data("kitti_gt/06.txt"), straight_then_turns(50)) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
-    let mut text = straight_then_turns(50);
     text.push_str("1 nan 2\n");
     let a = write(dir.path(), "nan.xyz", &text);
     assert_clean_error(&turnprint(&["loops", a.to_str().unwrap()]), &a, Some(51));
     let b = write(dir.path(), "inf.xyz", "0 0 0\n1 0 inf\n2 0 0\n3 1 0\n");
     assert_clean_error(
-        &turnprint(&["match", "tests/data/06.txt", b.to_str().unwrap()]),
+        &turnprint(&["match", &kitti06, b.to_str().unwrap()]),
         &b,
         Some(2),
     );
@@ -104,8 +113,11 @@ fn nan_and_inf_name_their_line() {
 
 #[test]
 fn wrong_column_count_names_its_line() {
+    let Some(kitti06) = data("kitti_gt/06.txt") else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
-    let mut text = std::fs::read_to_string("tests/data/06.txt")
+    let mut text = std::fs::read_to_string(kitti06)
         .unwrap()
         .lines()
         .take(20)
@@ -130,8 +142,10 @@ fn stationary_path_is_an_error() {
 #[test]
 fn duplicate_and_stationary_poses_inside_a_path_are_harmless() {
     // KITTI 06 with every pose written three times and a long stop.
+    let Some(base) = straight_then_turns(1101) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
-    let base = straight_then_turns(1101);
     let mut text = String::new();
     for (i, line) in base.lines().enumerate() {
         let copies = if i == 500 { 600 } else { 3 };
@@ -159,14 +173,13 @@ fn duplicate_and_stationary_poses_inside_a_path_are_harmless() {
 
 #[test]
 fn match_json_follows_the_contract() {
-    let out = turnprint(&[
-        "match",
-        "tests/data/00.txt",
-        "tests/data/00_orbslam2_tum.txt",
-        "--json",
-        "--top",
-        "3",
-    ]);
+    let (Some(kitti00), Some(mono00)) = (
+        data("kitti_gt/00.txt"),
+        data("kitti_orbslam2_vio/00_orbslam2_tum.txt"),
+    ) else {
+        return;
+    };
+    let out = turnprint(&["match", &kitti00, &mono00, "--json", "--top", "3"]);
     assert!(
         out.status.success(),
         "{}",
@@ -205,7 +218,10 @@ fn match_json_follows_the_contract() {
 
 #[test]
 fn loops_json_follows_the_contract() {
-    let out = turnprint(&["loops", "tests/data/00.txt", "--json"]);
+    let Some(kitti00) = data("kitti_gt/00.txt") else {
+        return;
+    };
+    let out = turnprint(&["loops", &kitti00, "--json"]);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["poses"], 4541);
@@ -220,11 +236,14 @@ fn loops_json_follows_the_contract() {
 
 #[test]
 fn loops_draws_a_figure_of_the_loops_it_prints() {
+    let Some(kitti00) = data("kitti_gt/00.txt") else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let fig = dir.path().join("loops.svg");
     let out = turnprint_ok(&[
         "loops",
-        "tests/data/00.txt",
+        &kitti00,
         "--top",
         "3",
         "--plot",
@@ -234,20 +253,26 @@ fn loops_draws_a_figure_of_the_loops_it_prints() {
     assert!(svg.contains("3 loops of 4541 poses"), "title missing");
     assert!(String::from_utf8_lossy(&out.stderr).contains("figure of 3 loops"));
     // A figure name the figure cannot have: an error, and no table.
-    let out = turnprint(&["loops", "tests/data/00.txt", "--plot", "x.pdf"]);
+    let out = turnprint(&["loops", &kitti00, "--plot", "x.pdf"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains(".svg or .png"));
 }
 
 #[test]
 fn merge_writes_tum_and_a_figure() {
+    let (Some(kitti00), Some(mono00)) = (
+        data("kitti_gt/00.txt"),
+        data("kitti_orbslam2_vio/00_orbslam2_tum.txt"),
+    ) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let out_tum = dir.path().join("merged.tum");
     let fig = dir.path().join("merged.svg");
     turnprint_ok(&[
         "merge",
-        "tests/data/00.txt",
-        "tests/data/00_orbslam2_tum.txt",
+        &kitti00,
+        &mono00,
         "-o",
         out_tum.to_str().unwrap(),
         "--plot",
@@ -261,12 +286,7 @@ fn merge_writes_tum_and_a_figure() {
     // path. The similarity fits B across A's road (`align::polish`); along
     // the road ORB-SLAM2's scale, which varies over 00, leaves more:
     // 5.0 m median to the same frame, 2.3 m to A's path.
-    let m = turnprint(
-        "match tests/data/00.txt tests/data/00_orbslam2_tum.txt --json --top 1"
-            .split(' ')
-            .collect::<Vec<_>>()
-            .as_slice(),
-    );
+    let m = turnprint(&["match", &kitti00, &mono00, "--json", "--top", "1"]);
     let v: serde_json::Value = serde_json::from_slice(&m.stdout).unwrap();
     let b = &v["hypotheses"][0]["b_range"];
     let (b0, b1) = (
@@ -303,15 +323,16 @@ fn merge_writes_tum_and_a_figure() {
 fn merge_of_paths_with_no_common_road_warns_and_min_score_refuses() {
     // KITTI 00 (ground truth) and 06 (monocular ORB-SLAM2) share no road:
     // whatever ranks first is a look-alike.
+    let (Some(kitti00), Some(mono00), Some(mono06)) = (
+        data("kitti_gt/00.txt"),
+        data("kitti_orbslam2_vio/00_orbslam2_tum.txt"),
+        data("kitti_orbslam2_vio/06_orbslam2_tum.txt"),
+    ) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let out_tum = dir.path().join("merged.tum");
-    let args = [
-        "merge",
-        "tests/data/00.txt",
-        "tests/data/06_orbslam2_tum.txt",
-        "-o",
-        out_tum.to_str().unwrap(),
-    ];
+    let args = ["merge", &kitti00, &mono06, "-o", out_tum.to_str().unwrap()];
     let out = turnprint(&args);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
@@ -324,8 +345,8 @@ fn merge_of_paths_with_no_common_road_warns_and_min_score_refuses() {
     // A true merge neither warns nor is refused.
     let good = turnprint(&[
         "merge",
-        "tests/data/00.txt",
-        "tests/data/00_orbslam2_tum.txt",
+        &kitti00,
+        &mono00,
         "-o",
         out_tum.to_str().unwrap(),
         "--min-score",
@@ -338,7 +359,10 @@ fn merge_of_paths_with_no_common_road_warns_and_min_score_refuses() {
 
 #[test]
 fn stream_no_drift_probe_flag_keeps_the_json_lines_contract() {
-    let out = turnprint(&["stream", "tests/data/00.txt", "--json", "--no-drift-probe"]);
+    let Some(kitti00) = data("kitti_gt/00.txt") else {
+        return;
+    };
+    let out = turnprint(&["stream", &kitti00, "--json", "--no-drift-probe"]);
     assert!(
         out.status.success(),
         "{}",
@@ -361,14 +385,11 @@ fn stream_no_drift_probe_flag_keeps_the_json_lines_contract() {
 
 #[test]
 fn stream_workers_flag_gives_the_same_candidates_and_refuses_zero() {
+    let Some(kitti00) = data("kitti_gt/00.txt") else {
+        return;
+    };
     let run = |workers: &str| {
-        let out = turnprint_ok(&[
-            "stream",
-            "tests/data/00.txt",
-            "--json",
-            "--workers",
-            workers,
-        ]);
+        let out = turnprint_ok(&["stream", &kitti00, "--json", "--workers", workers]);
         let text = String::from_utf8(out.stdout).unwrap();
         let (summary, candidates) = text
             .lines()
@@ -391,7 +412,7 @@ fn stream_workers_flag_gives_the_same_candidates_and_refuses_zero() {
     assert_eq!(one, three);
     // The threads share one history.
     assert_eq!(bytes_three, bytes_one);
-    let out = turnprint(&["stream", "tests/data/00.txt", "--json", "--workers", "0"]);
+    let out = turnprint(&["stream", &kitti00, "--json", "--workers", "0"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--workers"));
 }
@@ -402,15 +423,17 @@ fn stream_workers_flag_gives_the_same_candidates_and_refuses_zero() {
 /// reading is no error: each command now stops quietly, status 0.
 #[test]
 fn a_reader_closing_stdout_early_is_no_panic_and_no_error() {
+    let (Some(kitti00), Some(gps_file)) = (
+        data("kitti_gt/00.txt"),
+        data("gtsam_data/KittiGps_converted.txt"),
+    ) else {
+        return;
+    };
     for args in [
-        vec!["loops", "tests/data/00.txt"],
-        vec!["loops", "tests/data/00.txt", "--json"],
-        vec![
-            "match",
-            "tests/data/00.txt",
-            "tests/data/KittiGps_converted.txt",
-        ],
-        vec!["stream", "tests/data/00.txt", "--json"],
+        vec!["loops", &kitti00],
+        vec!["loops", &kitti00, "--json"],
+        vec!["match", &kitti00, &gps_file],
+        vec!["stream", &kitti00, "--json"],
     ] {
         let mut child = Command::new(env!("CARGO_BIN_EXE_turnprint"))
             .args(&args)
@@ -437,18 +460,19 @@ fn turnprint_with_stdin(args: &[&str], input: Vec<u8>) -> Output {
 
 #[test]
 fn a_path_on_stdin_reads_as_the_file() {
-    let gps = std::fs::read("tests/data/KittiGps_converted.txt").unwrap();
+    let (Some(kitti00), Some(gps_file)) = (
+        data("kitti_gt/00.txt"),
+        data("gtsam_data/KittiGps_converted.txt"),
+    ) else {
+        return;
+    };
+    let gps = std::fs::read(&gps_file).unwrap();
     let hypotheses = |out: &Output| {
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         v["hypotheses"].clone()
     };
-    let file = turnprint_ok(&[
-        "match",
-        "tests/data/00.txt",
-        "tests/data/KittiGps_converted.txt",
-        "--json",
-    ]);
-    let piped = turnprint_with_stdin(&["match", "tests/data/00.txt", "-", "--json"], gps);
+    let file = turnprint_ok(&["match", &kitti00, &gps_file, "--json"]);
+    let piped = turnprint_with_stdin(&["match", &kitti00, "-", "--json"], gps);
     assert!(piped.status.success());
     assert_eq!(hypotheses(&file), hypotheses(&piped));
 
@@ -456,8 +480,8 @@ fn a_path_on_stdin_reads_as_the_file() {
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         v["loops"].clone()
     };
-    let file = turnprint_ok(&["loops", "tests/data/00.txt", "--json"]);
-    let kitti = std::fs::read("tests/data/00.txt").unwrap();
+    let file = turnprint_ok(&["loops", &kitti00, "--json"]);
+    let kitti = std::fs::read(&kitti00).unwrap();
     let piped = turnprint_with_stdin(&["loops", "-", "--json"], kitti);
     assert!(piped.status.success());
     assert_eq!(loops(&file), loops(&piped));
@@ -474,14 +498,17 @@ fn a_path_on_stdin_reads_as_the_file() {
 
 #[test]
 fn a_score_threshold_outside_0_to_1_is_refused() {
+    let Some(kitti00) = data("kitti_gt/00.txt") else {
+        return;
+    };
     for (cmd, value) in [("loops", "nan"), ("loops", "-0.1"), ("merge", "1.5")] {
         let threshold = format!("--min-score={value}");
         let args: Vec<&str> = match cmd {
-            "loops" => vec!["loops", "tests/data/00.txt", &threshold],
+            "loops" => vec!["loops", &kitti00, &threshold],
             _ => vec![
                 "merge",
-                "tests/data/00.txt",
-                "tests/data/00.txt",
+                &kitti00,
+                &kitti00,
                 "-o",
                 "/nonexistent/never-written.tum",
                 &threshold,

@@ -2,17 +2,18 @@
 //! fields of a `loops` entry plus `event`, `at_pose` and `id`, then one
 //! summary line; bad input is an error naming the file.
 
-use std::path::Path;
-
 use turnprint::io::Format;
-use turnprint_cli::stream::stream;
 use turnprint::online::OnlineConfig;
+use turnprint_cli::stream::stream;
 
 #[test]
 fn stream_writes_candidates_then_a_summary() {
+    let Some(kitti00) = turnprint_eval::data::require("kitti_gt/00.txt") else {
+        return;
+    };
     let mut out = Vec::new();
     let summary = stream(
-        Path::new("tests/data/00.txt"),
+        &kitti00,
         Format::Auto,
         &OnlineConfig::default(),
         None,

@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::data;
+
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Command, Output, Stdio};
 use std::sync::mpsc;
@@ -32,12 +34,12 @@ fn stream_piped(input: Vec<u8>, extra: &[&str]) -> Output {
 
 #[test]
 fn piped_poses_give_the_events_of_the_file() {
-    let file = turnprint()
-        .args(["stream", "tests/data/00_orbslam2_tum.txt"])
-        .output()
-        .unwrap();
+    let Some(mono00) = data("kitti_orbslam2_vio/00_orbslam2_tum.txt") else {
+        return;
+    };
+    let file = turnprint().args(["stream", &mono00]).output().unwrap();
     assert!(file.status.success());
-    let text = std::fs::read("tests/data/00_orbslam2_tum.txt").unwrap();
+    let text = std::fs::read(&mono00).unwrap();
     let piped = stream_piped(text, &[]);
     assert!(piped.status.success());
     let (from_file, from_pipe) = (events(&file.stdout), events(&piped.stdout));
@@ -51,14 +53,16 @@ fn piped_poses_give_the_events_of_the_file() {
 
 #[test]
 fn a_candidate_goes_out_while_the_input_still_waits() {
-    let path = "tests/data/00.txt";
-    let lines: Vec<String> = std::fs::read_to_string(path)
+    let Some(path) = data("kitti_gt/00.txt") else {
+        return;
+    };
+    let lines: Vec<String> = std::fs::read_to_string(&path)
         .unwrap()
         .lines()
         .map(|l| format!("{l}\n"))
         .collect();
     // The replay's first candidate, and the pose that produced it.
-    let file = turnprint().args(["stream", path]).output().unwrap();
+    let file = turnprint().args(["stream", &path]).output().unwrap();
     let first = events(&file.stdout).into_iter().next().unwrap();
     let v: serde_json::Value = serde_json::from_str(&first).unwrap();
     let at = v["at_pose"].as_u64().unwrap() as usize;
@@ -127,7 +131,10 @@ fn piped_bad_input_names_stdin_and_its_line() {
 #[test]
 fn a_lost_pose_is_dropped_and_counted_and_the_stream_goes_on() {
     // The monocular estimate with the odometry losing track three times.
-    let text = std::fs::read_to_string("tests/data/00_orbslam2_tum.txt").unwrap();
+    let Some(mono00) = data("kitti_orbslam2_vio/00_orbslam2_tum.txt") else {
+        return;
+    };
+    let text = std::fs::read_to_string(mono00).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     for at in [1000, 2000, 3000] {
         let t = lines[at].split_whitespace().next().unwrap().to_string();

@@ -41,7 +41,9 @@ enum WhatArg {
 /// Evaluate turnprint's batch matcher on KITTI 00, 02, 05, 06, 08.
 #[derive(Parser)]
 struct Args {
-    /// Data directory (falls back to tests/data).
+    /// Data directory in the shared data's layout (`kitti_gt/00.txt`); when
+    /// it has no KITTI 00, `$TURNPRINT_DATA`, the shared data beside the
+    /// repository, then the set-up cache `target/data`.
     #[arg(long, default_value = "../shared/data")]
     data: PathBuf,
     /// Seed of all random draws.

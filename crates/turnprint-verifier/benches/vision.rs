@@ -3,18 +3,21 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
-use turnprint_verifier::render::{on_road, render, World, WorldParams};
 use turnprint_verifier::features::GrayImage;
 use turnprint_verifier::matching::{DescriptorMatcher, MatchParams};
+use turnprint_verifier::render::{on_road, render, World, WorldParams};
 use turnprint_verifier::{CameraModel, OrbVerifier, VerifierParams};
 
 const W: u32 = 640;
 const H: u32 = 480;
 
-fn kitti00() -> Vec<Isometry3<f64>> {
-    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/00.txt");
+/// KITTI 00 ground-truth camera poses from the shared data (`None`, after
+/// a line saying the benchmark is skipped, when they are absent).
+fn kitti00() -> Option<Vec<Isometry3<f64>>> {
+    let file = turnprint_eval::data::require("kitti_gt/00.txt")?;
     let text = std::fs::read_to_string(file).expect("KITTI 00 ground truth");
-    text.lines()
+    let poses = text
+        .lines()
         .map(|line| {
             let v: Vec<f64> = line
                 .split_whitespace()
@@ -26,12 +29,15 @@ fn kitti00() -> Vec<Isometry3<f64>> {
                 UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r)),
             )
         })
-        .collect()
+        .collect();
+    Some(poses)
 }
 
 fn bench(c: &mut Criterion) {
     opencv::core::set_num_threads(1).expect("OpenCV threads");
-    let poses = kitti00();
+    let Some(poses) = kitti00() else {
+        return;
+    };
     let positions: Vec<_> = poses.iter().map(|p| p.translation.vector).collect();
     let world = World::from_positions(&positions, WorldParams::default()).expect("world");
     let pinhole = CameraModel::standard_pinhole(W, H, 90f64.to_radians());

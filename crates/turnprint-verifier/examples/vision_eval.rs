@@ -3,11 +3,14 @@
 //! in time) must be confirmed, pairs of far-apart places must be rejected,
 //! for each camera pairing.
 //!
-//! `cargo run --release --features verifier --example vision_eval -- [SEQ...] [--pairs N]`
+//! `cargo run --release -p turnprint-verifier --example vision_eval -- [SEQ...] [--pairs N]`
+//!
+//! The ground truth (`kitti_gt/SEQ.txt`) comes from the shared data (see
+//! `turnprint_eval::data`); a sequence whose file is absent is skipped.
 
 use nalgebra::Isometry3;
-use turnprint_verifier::render::{camera_poses, on_road, render, World, WorldParams};
 use turnprint_verifier::features::GrayImage;
+use turnprint_verifier::render::{camera_poses, on_road, render, World, WorldParams};
 use turnprint_verifier::{CameraModel, OrbVerifier, VerifierParams};
 
 /// Camera poses of a KITTI ground-truth file, read by the project's reader.
@@ -82,10 +85,10 @@ fn main() {
     let mut verify_time = std::time::Duration::ZERO;
     let mut verify_count = 0usize;
     for seq in &seqs {
-        let poses = kitti_poses(&format!(
-            "{}/tests/data/{seq}.txt",
-            env!("CARGO_MANIFEST_DIR")
-        ));
+        let Some(truth) = turnprint_eval::data::require(&format!("kitti_gt/{seq}.txt")) else {
+            continue;
+        };
+        let poses = kitti_poses(truth.to_str().expect("a UTF-8 data path"));
         let positions: Vec<_> = poses.iter().map(|p| p.translation.vector).collect();
         let world = World::from_positions(&positions, WorldParams::default()).expect("world");
         // True revisits: within 3 m, heading within 30 deg (--max-heading), at least 300 frames apart.

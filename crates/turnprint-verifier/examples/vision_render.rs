@@ -1,7 +1,10 @@
 //! Renders KITTI 00 frames of the street world with each camera model and
 //! writes them as PNG files, to look at the test world.
 //!
-//! `cargo run --release --features verifier --example vision_render -- OUT_DIR [FRAME...]`
+//! `cargo run --release -p turnprint-verifier --example vision_render -- OUT_DIR [FRAME...]`
+//!
+//! KITTI 00's ground truth comes from the shared data
+//! (`kitti_gt/00.txt`, see `turnprint_eval::data`).
 
 use nalgebra::Isometry3;
 use opencv::core::{Mat, Vector};
@@ -27,7 +30,10 @@ fn main() {
     } else {
         vec![50, 4495]
     };
-    let poses = kitti_poses(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/00.txt"));
+    let Some(truth) = turnprint_eval::data::require("kitti_gt/00.txt") else {
+        return;
+    };
+    let poses = kitti_poses(truth.to_str().expect("a UTF-8 data path"));
     let positions: Vec<_> = poses.iter().map(|p| p.translation.vector).collect();
     let t0 = std::time::Instant::now();
     let world = World::from_positions(&positions, WorldParams::default()).expect("world");

@@ -29,29 +29,42 @@ fn photo_camera(width: u32, height: u32) -> CameraModel {
     CameraModel::standard_pinhole(width, height, 53f64.to_radians())
 }
 
-fn verifier_with(images: &[(u64, &str, Option<CameraModel>)]) -> OrbVerifier {
+/// KITTI 06 frames from the shared data (`12-R`: the right camera of 12).
+const KITTI06_12: &str = "images/kitti06_pyslam/kitti06-12.png";
+const KITTI06_13: &str = "images/kitti06_pyslam/kitti06-13.png";
+const KITTI06_12_R: &str = "images/kitti06_pyslam/kitti06-12-R.png";
+/// OpenCV sample photos from the shared data.
+const GRAF1: &str = "images/opencv_samples/graf1.png";
+const GRAF3: &str = "images/opencv_samples/graf3.png";
+const BOX: &str = "images/opencv_samples/box.png";
+const BUILDING: &str = "images/opencv_samples/building.jpg";
+
+/// A verifier holding these images (shared-data files) as keyframes, or
+/// `None` when one of them is absent.
+fn verifier_with(images: &[(u64, &str, Option<CameraModel>)]) -> Option<OrbVerifier> {
     let mut v = OrbVerifier::new(VerifierParams::default()).unwrap();
     for &(id, file, camera) in images {
-        let img = load_gray(&data(file));
+        let img = load_gray(&data(file)?);
         let camera = camera.unwrap_or_else(|| photo_camera(img.width, img.height));
         v.add_keyframe(id, camera, img.view()).unwrap();
     }
-    v
+    Some(v)
 }
 
 #[test]
 fn kitti06_consecutive_frames_give_the_true_relative_motion() {
     let cam = Some(kitti06_camera());
-    let mut v = verifier_with(&[
-        (12, "images/kitti06-12.png", cam),
-        (13, "images/kitti06-13.png", cam),
-    ]);
+    let (Some(mut v), Some(gt)) = (
+        verifier_with(&[(12, KITTI06_12, cam), (13, KITTI06_13, cam)]),
+        data("kitti_gt/06.txt"),
+    ) else {
+        return;
+    };
     let verdict = v.verify(12, 13);
     let pose = verdict
         .pose
         .as_ref()
         .unwrap_or_else(|| panic!("rejected: {verdict:?}"));
-    let gt = data("06.txt");
     let b_T_a = kitti_pose(&gt, 13).inverse() * kitti_pose(&gt, 12);
     let rot_err = (pose.b_R_a.inverse() * b_T_a.rotation.to_rotation_matrix())
         .angle()
@@ -69,10 +82,9 @@ fn kitti06_consecutive_frames_give_the_true_relative_motion() {
 #[test]
 fn kitti06_stereo_pair_is_a_sideways_baseline() {
     let cam = Some(kitti06_camera());
-    let mut v = verifier_with(&[
-        (0, "images/kitti06-12.png", cam),
-        (1, "images/kitti06-12-R.png", cam),
-    ]);
+    let Some(mut v) = verifier_with(&[(0, KITTI06_12, cam), (1, KITTI06_12_R, cam)]) else {
+        return;
+    };
     let verdict = v.verify(0, 1);
     let pose = verdict
         .pose
@@ -95,12 +107,14 @@ fn kitti06_stereo_pair_is_a_sideways_baseline() {
 
 #[test]
 fn unrelated_photos_are_rejected() {
-    let mut v = verifier_with(&[
-        (1, "images/graf1.png", None),
-        (2, "images/building.jpg", None),
-        (3, "images/box.png", None),
-        (4, "images/kitti06-12.png", Some(kitti06_camera())),
-    ]);
+    let Some(mut v) = verifier_with(&[
+        (1, GRAF1, None),
+        (2, BUILDING, None),
+        (3, BOX, None),
+        (4, KITTI06_12, Some(kitti06_camera())),
+    ]) else {
+        return;
+    };
     for (a, b) in [(1, 2), (3, 2), (1, 3), (4, 2), (4, 1), (3, 4)] {
         let verdict = v.verify(a, b);
         eprintln!("{a} vs {b}: {}", verdict.reason);
@@ -108,9 +122,10 @@ fn unrelated_photos_are_rejected() {
     }
 }
 
-/// The true homography from graf1 to graf3 (OpenCV sample `H1to3p.xml`).
-fn graf_homography() -> Matrix3<f64> {
-    let text = std::fs::read_to_string(data("images/H1to3p.xml")).unwrap();
+/// The true homography from graf1 to graf3 (OpenCV sample `H1to3p.xml`),
+/// or `None` when it is absent.
+fn graf_homography() -> Option<Matrix3<f64>> {
+    let text = std::fs::read_to_string(data("images/opencv_samples/H1to3p.xml")?).unwrap();
     let body = text
         .split("<data>")
         .nth(1)
@@ -123,13 +138,17 @@ fn graf_homography() -> Matrix3<f64> {
         .map(|x| x.parse().unwrap())
         .collect();
     assert_eq!(v.len(), 9);
-    Matrix3::from_row_slice(&v)
+    Some(Matrix3::from_row_slice(&v))
 }
 
 #[test]
 fn graf_matches_agree_with_the_true_homography() {
-    let mut v = verifier_with(&[(1, "images/graf1.png", None), (3, "images/graf3.png", None)]);
-    let H = graf_homography();
+    let (Some(mut v), Some(H)) = (
+        verifier_with(&[(1, GRAF1, None), (3, GRAF3, None)]),
+        graf_homography(),
+    ) else {
+        return;
+    };
     let (a, b) = (
         v.features(1).unwrap().clone(),
         v.features(3).unwrap().clone(),
@@ -208,11 +227,13 @@ fn opencv_matches(
 #[test]
 fn descriptor_matches_equal_opencv_bfmatcher() {
     let cam = Some(kitti06_camera());
-    let v = verifier_with(&[
-        (12, "images/kitti06-12.png", cam),
-        (13, "images/kitti06-13.png", cam),
-        (1, "images/graf1.png", None),
-    ]);
+    let Some(v) = verifier_with(&[
+        (12, KITTI06_12, cam),
+        (13, KITTI06_13, cam),
+        (1, GRAF1, None),
+    ]) else {
+        return;
+    };
     let params = MatchParams::default();
     let ours = DescriptorMatcher::new(params).unwrap();
     for (x, y) in [(12, 13), (12, 1)] {

@@ -2,7 +2,7 @@
 //! real `turnprint-verifier` process, and the real KITTI images.
 #![allow(dead_code)]
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Child;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
@@ -108,14 +108,18 @@ pub struct Gray {
     pub pixels: Vec<u8>,
 }
 
-fn data_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/images")
+/// `file` in the shared data (its layout, e.g. `kitti_gt/06.txt`), or
+/// `None` after a line saying the test is skipped (a failure under
+/// `CI=true`; [`turnprint_eval::data::require`]).
+pub fn data(file: &str) -> Option<PathBuf> {
+    turnprint_eval::data::require(file)
 }
 
-/// Loads a real KITTI 06 frame (grey, 1226x370) from tests/data.
-pub fn kitti06(frame: u32) -> Gray {
+/// Loads a real KITTI 06 frame (left grey camera, 1226x370) from the shared
+/// data (`images/kitti06_pyslam/kitti06-FRAME.png`); `None` when absent.
+pub fn kitti06(frame: u32) -> Option<Gray> {
     use opencv::prelude::*;
-    let path = data_dir().join(format!("kitti06-{frame}.png"));
+    let path = data(&format!("images/kitti06_pyslam/kitti06-{frame}.png"))?;
     let mat =
         opencv::imgcodecs::imread(path.to_str().unwrap(), opencv::imgcodecs::IMREAD_GRAYSCALE)
             .unwrap();
@@ -123,11 +127,16 @@ pub fn kitti06(frame: u32) -> Gray {
     let (width, height) = (mat.cols() as u32, mat.rows() as u32);
     let pixels = mat.data_bytes().unwrap().to_vec();
     assert_eq!(pixels.len(), (width * height) as usize);
-    Gray {
+    Some(Gray {
         width,
         height,
         pixels,
-    }
+    })
+}
+
+/// KITTI 06 frames 12 and 13 (one frame apart); `None` when absent.
+pub fn kitti06_pair() -> Option<(Gray, Gray)> {
+    Some((kitti06(12)?, kitti06(13)?))
 }
 
 /// The KITTI odometry left grey camera of sequences 04-12 (rectified).

@@ -6,9 +6,13 @@ use opencv::imgcodecs::{imread, IMREAD_GRAYSCALE};
 use opencv::prelude::*;
 use turnprint_verifier::features::GrayImage;
 
-/// Directory of the test data.
-pub fn data(path: &str) -> String {
-    format!("{}/tests/data/{path}", env!("CARGO_MANIFEST_DIR"))
+/// `file` in the shared data (its layout, e.g. `kitti_gt/06.txt` or
+/// `images/opencv_samples/graf1.png`), or `None` after a line saying the
+/// test is skipped (a failure under `CI=true`;
+/// [`turnprint_eval::data::require`]).
+pub fn data(file: &str) -> Option<String> {
+    let path = turnprint_eval::data::require(file)?;
+    Some(path.to_str().expect("a UTF-8 data path").to_string())
 }
 
 /// A grey image owned by the test.
