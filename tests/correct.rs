@@ -5,9 +5,9 @@
 
 use nalgebra::Vector3;
 use turnprint::correct::{correct, correct_with_loops, CorrectConfig, LoopClosure};
-use turnprint_eval::ape::{ape, Alignment};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::Trajectory;
+use turnprint_eval::ape::{ape, Alignment};
 
 mod common;
 use common::shared;

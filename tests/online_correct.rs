@@ -7,11 +7,11 @@
 
 use nalgebra::Vector3;
 use turnprint::correct::CorrectConfig;
-use turnprint_eval::ape::{ape, Alignment};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::correction::LoopInput;
 use turnprint::online::synthetic::CityDrive;
 use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
+use turnprint_eval::ape::{ape, Alignment};
 
 mod common;
 use common::shared;

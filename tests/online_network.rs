@@ -73,9 +73,8 @@ fn a_rival_slid_along_the_same_road_is_not_another_place() {
 
 /// The same revisit under seed 1, the one that motivated the registration
 /// (the drift probe's candidates slid 40-55 m along the common straight).
-/// Its windows turn by less than a radian, the fourteenth session's gate;
-/// registered anyway (a gate of half a radian then, none since the
-/// fifteenth), the gentle curve and the junction pin it.
+/// Its windows turn by less than a radian; registered anyway (there is no
+/// gate on a window's turning), the gentle curve and the junction pin it.
 #[test]
 fn a_window_turning_by_less_than_a_radian_is_registered() {
     first_revisit_placed_on_the_network(1);

@@ -9,10 +9,10 @@ use std::ffi::{c_char, c_int, CStr};
 use std::time::Duration;
 
 use nalgebra::{Matrix3, Vector3};
-use turnprint_ipc::{CameraParams, ClientConfig, Outcome, VerifierClient};
 use turnprint::online::events::KeyframePair;
 use turnprint::online::{CandidateEvent, Source};
 use turnprint::Hypothesis;
+use turnprint_ipc::{CameraParams, ClientConfig, Outcome, VerifierClient};
 
 use crate::{
     free_handle, guarded, hand_over, row_major, set_error, TpCandidate, TP_ACCEPTED, TP_ERROR,

@@ -34,12 +34,12 @@ const DRIFT_SCALE: f64 = 1.5;
 /// monocular estimate such stubs (12-15 poses, 0.4-0.5 of a window once
 /// growth follows the road) paired the racetrack's two straights, 16-46 m
 /// apart, which fisheye cameras facing opposite ways confirmed (regression
-/// `stream_verify`, which passes at half a window). Two thirds (until the
-/// nineteenth session) also lost KITTI 08's reversed straight revisit
+/// `stream_verify`, which passes at half a window). Two thirds would
+/// also lose KITTI 08's reversed straight revisit
 /// under strong drift: the drift bends the two passes apart along it, and
 /// growth ends at 0.51-0.64 of a window, scoring up to 0.23 at the map's
-/// scale (strong drift, seeds 1-40: 391 -> 397 of 440 events; seeds 41-80,
-/// held out: 377 -> 384; every event gained is that one, none lost).
+/// scale (strong drift, seeds 1-40: 397 of 440 events at a half against
+/// 391 at two thirds; seeds 41-80, held out: 384 against 377).
 const DRIFT_MIN_WINDOW: f64 = 0.5;
 /// Fraction of the cut a shape candidate's score must reach after the first
 /// grow round for the rounds that follow to run. Over ground truth, ORB and

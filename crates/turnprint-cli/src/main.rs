@@ -624,7 +624,8 @@ fn run_merge(
     if let Some(fig) = plot {
         let a_points = ta.positions();
         let b_in_a: Vec<_> = tb.positions().iter().map(|p| best.transform(p)).collect();
-        turnprint_cli::plot::plot_merge(fig, &a_points, &b_in_a, best).map_err(|e| e.to_string())?;
+        turnprint_cli::plot::plot_merge(fig, &a_points, &b_in_a, best)
+            .map_err(|e| e.to_string())?;
     }
     eprintln!(
         "merged {} + {} poses into {} (score {:.3}, scale {:.4}, rmse {:.3}{})",

@@ -23,12 +23,12 @@ use nalgebra::Vector3;
 use serde_json::{json, Value};
 
 use turnprint::io::{read_trajectory, Format};
+use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
+use turnprint::{Error, Result, Trajectory};
 use turnprint_ipc::client::{Candidate, ClientConfig, Outcome, VerifierClient};
 use turnprint_ipc::payload::CameraParams;
-use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
-use turnprint_verifier::render::{camera_poses, on_road, render, World, WorldParams};
 use turnprint_verifier::camera::CameraModel;
-use turnprint::{Error, Result, Trajectory};
+use turnprint_verifier::render::{camera_poses, on_road, render, World, WorldParams};
 
 /// Settings of a verified replay.
 #[derive(Debug, Clone)]

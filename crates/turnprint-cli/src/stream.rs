@@ -14,8 +14,8 @@ use std::time::Duration;
 use crossbeam::channel::{bounded, RecvTimeoutError};
 use serde_json::json;
 
-use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput, Summary};
 use turnprint::io::{read_trajectory, Format, PoseLines};
+use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput, Summary};
 use turnprint::pipeline::prepare::MIN_POSES;
 use turnprint::{Error, Pose, Result, Trajectory};
 
@@ -35,7 +35,13 @@ pub fn stream(
     out: &mut dyn Write,
 ) -> Result<Summary> {
     let trajectory = read_trajectory(path, format)?;
-    stream_trajectory(&trajectory, &path.display().to_string(), config, correct, out)
+    stream_trajectory(
+        &trajectory,
+        &path.display().to_string(),
+        config,
+        correct,
+        out,
+    )
 }
 
 /// [`stream`] of a trajectory already read (named `name` in messages).

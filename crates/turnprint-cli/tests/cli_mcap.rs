@@ -81,7 +81,14 @@ fn the_topic_applies_to_the_bag_and_leaves_a_text_file_as_it_is() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let out = turnprint(&["match", &bag, tum.to_str().unwrap(), "--topic", "/odom", "--json"]);
+    let out = turnprint(&[
+        "match",
+        &bag,
+        tum.to_str().unwrap(),
+        "--topic",
+        "/odom",
+        "--json",
+    ]);
     assert!(
         out.status.success(),
         "{}",

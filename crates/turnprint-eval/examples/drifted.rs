@@ -10,8 +10,8 @@ use std::io::Write;
 use std::path::Path;
 
 use rand::SeedableRng;
-use turnprint_eval::drift::DriftModel;
 use turnprint::io::{read_trajectory, Format};
+use turnprint_eval::drift::DriftModel;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -17,9 +17,9 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 use turnprint::correct::{correct, CorrectConfig};
-use turnprint_eval::ape::{ape, Alignment};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::Trajectory;
+use turnprint_eval::ape::{ape, Alignment};
 
 /// The shared data, relative to the project root (`DATA=dir` to change).
 fn data_dir() -> PathBuf {

@@ -5,8 +5,8 @@
 
 #![allow(non_snake_case)]
 
-use turnprint::geometry::Similarity3;
 use nalgebra::Vector3;
+use turnprint::geometry::Similarity3;
 
 /// The alignment applied before the errors are taken.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

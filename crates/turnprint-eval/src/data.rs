@@ -129,7 +129,10 @@ pub fn require(rel: &str) -> Option<PathBuf> {
     if let Some(p) = find(rel) {
         return Some(p);
     }
-    let dirs: Vec<String> = data_dirs().iter().map(|d| d.display().to_string()).collect();
+    let dirs: Vec<String> = data_dirs()
+        .iter()
+        .map(|d| d.display().to_string())
+        .collect();
     let message = format!(
         "{rel} is in none of {} (set TURNPRINT_DATA, or run scripts/setup.sh)",
         dirs.join(", ")

@@ -45,9 +45,9 @@ use std::path::PathBuf;
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use serde::Serialize;
 
-use turnprint::Result;
 use data::{load_sequence, resolve_data_dir, Sequence, SEQUENCES};
 pub use report::Report;
+use turnprint::Result;
 
 /// Sources of B in the merge cases unless asked otherwise.
 pub const MERGE_SOURCES: [Source; 3] = [Source::Gt, Source::Mono, Source::Gps];

@@ -18,8 +18,8 @@
 mod crosscheck_support;
 
 use crosscheck_support::{num, python_with, run_json, shared, within};
-use turnprint_eval::ape::{ape, rpe_positions, Alignment, ErrorStats};
 use turnprint::io::{read_trajectory, Format};
+use turnprint_eval::ape::{ape, rpe_positions, Alignment, ErrorStats};
 
 /// Agreement asked of every figure: both sides compute the same Umeyama fit
 /// and statistics in double precision.

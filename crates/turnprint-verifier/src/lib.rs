@@ -6,9 +6,9 @@
 //! (default), which also builds the `turnprint-verifier` sidecar binary.
 
 pub mod camera;
-pub mod render;
 #[cfg(feature = "opencv")]
 pub mod features;
+pub mod render;
 // `impl FrameVerifier for OrbVerifier` for the verifier sidecar.
 #[cfg(feature = "opencv")]
 mod frame_verifier;

@@ -17,7 +17,9 @@ pub fn python_with(module: &str) -> Option<PathBuf> {
     let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
     let python = std::env::var_os("TURNPRINT_PYTHON")
         .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/pyenv/bin/python"));
+        .unwrap_or_else(|| {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/pyenv/bin/python")
+        });
     let imports = Command::new(&python)
         .args(["-c", &format!("import {module}")])
         .env("HOME", home())
