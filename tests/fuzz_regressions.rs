@@ -5,7 +5,9 @@
 
 use std::path::Path;
 
+use nalgebra::Vector3;
 use turnprint::io::{parse_trajectory, read_trajectory_from, Format};
+use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Summary};
 use turnprint::{Error, Trajectory};
 
 /// Reads `bytes` as a file named `name`.
@@ -39,4 +41,65 @@ fn gpx_elevations_far_apart_overflow_the_enu_position() {
     )
     .unwrap();
     assert_eq!(t.poses[0].position, nalgebra::Vector3::zeros());
+}
+
+/// Runs `f` on a thread of its own and fails if it takes longer than a
+/// minute: a hang is the bug, not a test that never ends.
+fn within_a_minute<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(f());
+    });
+    rx.recv_timeout(std::time::Duration::from_secs(60))
+        .expect("hung (or panicked)")
+}
+
+#[test]
+fn huge_coordinates_overflow_squared_steps_and_hang_the_track_grid() {
+    // 93 poses standing still with a jitter of 1e155 (detector_stream's
+    // `Stand { n: 93, jitter: -1e155 }`): steps are finite, their squares
+    // are not, so chord lengths were infinite and the grid emitted samples
+    // for ever at `finish`.
+    let (events, summary) = stand(93, -1e155, OnlineConfig::default().warmup_min_poses);
+    assert!(events.is_empty());
+    assert_eq!(summary.poses, 93);
+    // Refused and counted, not lost: the method squares distances.
+    assert_eq!(summary.accepted, 0);
+    assert_eq!(summary.guards.non_finite, 93);
+}
+
+/// `n` poses standing still with a jitter of `radius` (detector_stream's
+/// `Stand`), through a detector warmed up on `warmup` poses.
+fn stand(n: usize, radius: f64, warmup: usize) -> (Vec<CandidateEvent>, Summary) {
+    within_a_minute(move || {
+        let config = OnlineConfig {
+            warmup_min_poses: warmup,
+            drift_probe: false,
+            ..OnlineConfig::default()
+        };
+        let mut detector = Detector::new(config, Overflow::Block);
+        for k in 0..n {
+            let phase = k as f64 * 2.399_963;
+            detector.push(&PoseInput::at(
+                radius * Vector3::new(phase.cos(), phase.sin(), 0.0),
+            ));
+        }
+        detector.finish()
+    })
+}
+
+#[test]
+fn coordinates_beyond_f32_overflowed_the_history_and_its_cell_keys() {
+    // The worker's history keeps positions as f32: at 1e98 they were
+    // infinite there, the spatial index's cell keys saturated and the
+    // proximity probe's cell range overflowed (a panic on the worker's
+    // thread, the worker lost).
+    let (_, summary) = stand(250, 1e98, 67);
+    assert_eq!(summary.workers_lost, 0);
+    assert_eq!((summary.accepted, summary.guards.non_finite), (0, 250));
+    // Within the bound the same stream is matched like any other.
+    let (_, summary) = stand(250, 1e29, 67);
+    assert_eq!(summary.workers_lost, 0);
+    assert_eq!(summary.accepted, 250);
+    assert!(summary.worker.messages > 0, "{summary:?}");
 }

@@ -160,7 +160,7 @@ impl Robot {
         self.path.push(self.position);
         let keyframe = match self.keyframe_every {
             0 => None,
-            k if index % usize::from(k) == 0 => {
+            k if index.is_multiple_of(usize::from(k)) => {
                 let id = self.next_keyframe;
                 self.next_keyframe = self.next_keyframe.wrapping_add(1);
                 Some(id)

@@ -1,6 +1,8 @@
 //! What real odometry sends, and what the detector does with it:
 //!
-//! - a non-finite position or timestamp: the pose is dropped (counted);
+//! - a non-finite position or timestamp: the pose is dropped (counted); so
+//!   is a coordinate beyond [`MAX_COORDINATE`], whose distances the method
+//!   cannot square;
 //! - a timestamp older than the last accepted one: dropped (out of order);
 //! - a timestamp equal to the last accepted one: dropped (duplicate);
 //! - a single pose far away from both its neighbours (a GPS glitch: the step
@@ -16,10 +18,22 @@
 
 use nalgebra::Vector2;
 
+/// Largest magnitude of a coordinate the detector takes.
+///
+/// The worker's history keeps positions as `f32` relative to the warm-up
+/// centroid, which overflow to infinity past 3.4e38 (and then its spatial
+/// index computed cell keys out of range); the method also squares
+/// distances and path lengths in `f64`, which overflow from steps of about
+/// 1e154 on (the chord parameter became infinite and the grid emitted
+/// samples for ever). 1e30 leaves the path eight orders of magnitude to
+/// travel within `f32`; no map in any unit comes near it.
+pub const MAX_COORDINATE: f64 = 1e30;
+
 /// Why a pose was not used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Rejection {
-    /// NaN or infinite position or timestamp.
+    /// NaN or infinite position or timestamp, or a coordinate beyond
+    /// [`MAX_COORDINATE`] (not finite in the method's arithmetic).
     NonFinite,
     /// Timestamp older than the last accepted pose's.
     OutOfOrder,
@@ -30,7 +44,8 @@ pub enum Rejection {
 /// Counts of what the guards did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct GuardCounts {
-    /// Non-finite poses dropped.
+    /// Non-finite poses dropped (coordinates beyond [`MAX_COORDINATE`]
+    /// included).
     pub non_finite: u64,
     /// Out-of-order poses dropped.
     pub out_of_order: u64,
@@ -51,7 +66,8 @@ pub struct TimeGuard {
 impl TimeGuard {
     /// Checks one pose; on success it becomes the last accepted one.
     pub fn check(&mut self, t: Option<f64>, p: &[f64; 3]) -> Result<(), Rejection> {
-        if !p.iter().all(|v| v.is_finite()) || t.is_some_and(|t| !t.is_finite()) {
+        // `abs() <= MAX` is false for NaN too.
+        if !p.iter().all(|v| v.abs() <= MAX_COORDINATE) || t.is_some_and(|t| !t.is_finite()) {
             return Err(Rejection::NonFinite);
         }
         if let (Some(t), Some(last)) = (t, self.last_t) {

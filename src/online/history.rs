@@ -387,9 +387,19 @@ impl SpatialIndex {
         let (Some(x0), Some(x1), Some(y0), Some(y1)) = (x0, x1, y0, y1) else {
             return best;
         };
+        // Keys saturate for points outside the cells' range, which then has
+        // nothing near them (the guard keeps such positions out).
+        let (Some(x0), Some(x1), Some(y0), Some(y1)) = (
+            x0.checked_sub(r),
+            x1.checked_add(r),
+            y0.checked_sub(r),
+            y1.checked_add(r),
+        ) else {
+            return best;
+        };
         let max2 = max_radius * max_radius;
-        for cx in x0 - r..=x1 + r {
-            for cy in y0 - r..=y1 + r {
+        for cx in x0..=x1 {
+            for cy in y0..=y1 {
                 let Some(list) = self.cells.get(&(cx, cy)) else {
                     continue;
                 };

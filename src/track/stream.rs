@@ -112,7 +112,8 @@ impl GridStream {
         let reach = self.smoother.reach();
         loop {
             let ui = self.next as f64 * self.step;
-            if u <= ui + reach || u.is_nan() {
+            // An infinite `u` would never be reached.
+            if u <= ui + reach || !u.is_finite() {
                 break;
             }
             out(self.eval(ui));
