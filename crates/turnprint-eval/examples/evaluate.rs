@@ -8,7 +8,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
-use turnprint_eval::{self, Options, Source, What};
+use turnprint_eval as eval;
+use turnprint_eval::{Options, Source, What};
 
 #[derive(Clone, Copy, ValueEnum)]
 enum SourceArg {
