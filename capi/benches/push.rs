@@ -11,14 +11,16 @@ use turnprint_c::{
     TpCandidate, TpPose,
 };
 
-fn kitti_00() -> Vec<[f64; 3]> {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/00.txt");
-    turnprint::io::read_trajectory(path.as_ref(), turnprint::io::Format::Kitti)
-        .expect("tests/data/00.txt")
+/// KITTI 00's ground truth from the shared data, `None` when absent.
+fn kitti_00() -> Option<Vec<[f64; 3]>> {
+    let path = turnprint_eval::data::require("kitti_gt/00.txt")?;
+    let points = turnprint::io::read_trajectory(&path, turnprint::io::Format::Kitti)
+        .expect("kitti_gt/00.txt")
         .positions()
         .iter()
         .map(|p| [p.x, p.y, p.z])
-        .collect()
+        .collect();
+    Some(points)
 }
 
 fn pose(position: [f64; 3]) -> TpPose {
@@ -31,7 +33,9 @@ fn pose(position: [f64; 3]) -> TpPose {
 }
 
 fn push(c: &mut Criterion) {
-    let points = kitti_00();
+    let Some(points) = kitti_00() else {
+        return;
+    };
     let mut polled = [TpCandidate::default(); 8];
     let mut lat = Vec::with_capacity(points.len() * 20);
     for _ in 0..20 {

@@ -4,7 +4,7 @@
 //
 //   cargo build --release -p turnprint-capi
 //   c++ -O2 -Icapi/include capi/examples/vo_loop.cpp target/release/libturnprint_c.a -lpthread -ldl -lm -o vo_loop
-//   ./vo_loop tests/data/00_orbslam2_tum.txt [--wait]
+//   ./vo_loop ../shared/data/kitti_orbslam2_vio/00_orbslam2_tum.txt [--wait]
 //
 // --wait makes push wait for the matcher, so the candidates are the same
 // on every run (a replay); without it push never waits, as a live VO needs.

@@ -16,6 +16,14 @@ fn manifest() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The absolute path of `rel` in the shared data (e.g. `kitti_gt/00.txt`),
+/// or `None` after a line saying the test is skipped (a failure under
+/// `CI=true`: [`turnprint_eval::data::require`]).
+fn data(rel: &str) -> Option<PathBuf> {
+    let path = turnprint_eval::data::require(rel)?;
+    Some(std::path::absolute(&path).unwrap_or(path))
+}
+
 /// The crate's static library, which cargo builds beside this test
 /// binary in `target/<profile>/deps` (and copies one level up).
 fn library() -> PathBuf {
@@ -75,7 +83,8 @@ fn run(program: &Path, args: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("utf-8")
 }
 
-const KITTI_00_MONO: &str = "../tests/data/00_orbslam2_tum.txt";
+/// KITTI 00 as monocular ORB-SLAM2 saw it (TUM format, its own scale).
+const KITTI_00_MONO: &str = "kitti_orbslam2_vio/00_orbslam2_tum.txt";
 
 #[test]
 fn misuse_and_lost_poses_from_c_get_codes_and_messages_not_crashes() {
@@ -136,7 +145,9 @@ fn candidate_lines(out: &str) -> Vec<&str> {
 #[test]
 fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
     let program = compile_cpp("examples/vo_loop.cpp", "vo_loop");
-    let path = manifest().join(KITTI_00_MONO);
+    let Some(path) = data(KITTI_00_MONO) else {
+        return;
+    };
     let out = run(&program, &[path.to_str().unwrap(), "--wait"]);
     let expected = rust_candidates(&path);
     assert!(expected.len() > 40, "{} candidates", expected.len());
@@ -146,7 +157,9 @@ fn the_cpp_vo_loop_gets_the_candidates_of_the_rust_detector() {
 #[test]
 fn a_live_cpp_loop_that_never_waits_loses_no_candidate() {
     let program = compile_cpp("examples/vo_loop.cpp", "vo_loop_live");
-    let path = manifest().join(KITTI_00_MONO);
+    let Some(path) = data(KITTI_00_MONO) else {
+        return;
+    };
     let out = run(&program, &[path.to_str().unwrap()]);
     let printed = out.lines().filter(|l| l.starts_with("candidate")).count();
     let summary = out.lines().last().unwrap_or_default();
@@ -168,10 +181,11 @@ impl Drop for Killed {
     }
 }
 
-/// A real KITTI 06 frame (`tests/data/images`) as raw 8-bit grey rows;
-/// returns the file and the image's width and height.
-fn raw_kitti06(frame: u32) -> (PathBuf, u32, u32) {
-    let png = manifest().join(format!("../tests/data/images/kitti06-{frame}.png"));
+/// A real KITTI 06 frame (`images/kitti06_pyslam` of the shared data) as
+/// raw 8-bit grey rows; returns the file and the image's width and height,
+/// or `None` when the data is absent.
+fn raw_kitti06(frame: u32) -> Option<(PathBuf, u32, u32)> {
+    let png = data(&format!("images/kitti06_pyslam/kitti06-{frame}.png"))?;
     let decoder = png::Decoder::new(std::fs::File::open(&png).expect("KITTI frame"));
     let mut reader = decoder.read_info().expect("PNG header");
     let mut pixels = vec![0; reader.output_buffer_size()];
@@ -183,7 +197,7 @@ fn raw_kitti06(frame: u32) -> (PathBuf, u32, u32) {
     pixels.truncate(info.buffer_size());
     let raw = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("kitti06-{frame}.gray"));
     std::fs::write(&raw, &pixels).unwrap();
-    (raw, info.width, info.height)
+    Some((raw, info.width, info.height))
 }
 
 #[test]
@@ -215,8 +229,9 @@ fn the_verifier_from_c_confirms_rejects_and_outlives_its_own_death() {
             .spawn()
             .expect("start turnprint-verifier"),
     );
-    let (f12, width, height) = raw_kitti06(12);
-    let (f13, ..) = raw_kitti06(13);
+    let (Some((f12, width, height)), Some((f13, ..))) = (raw_kitti06(12), raw_kitti06(13)) else {
+        return;
+    };
     let mut c = Killed(
         Command::new(&program)
             .arg(&prefix)
@@ -306,10 +321,9 @@ fn library_merges_and_loops(gt: &Path, mono: &Path) -> Vec<String> {
 #[test]
 fn whole_paths_from_c_give_the_librarys_merges_and_loops() {
     let program = compile_c("tests/merge_paths.c", "merge_paths");
-    let (gt, mono) = (
-        manifest().join("../tests/data/00.txt"),
-        manifest().join(KITTI_00_MONO),
-    );
+    let (Some(gt), Some(mono)) = (data("kitti_gt/00.txt"), data(KITTI_00_MONO)) else {
+        return;
+    };
     let out = run(&program, &[gt.to_str().unwrap(), mono.to_str().unwrap()]);
     assert_eq!(
         out.lines().collect::<Vec<_>>(),
@@ -375,7 +389,9 @@ fn cmake_and_pkg_config_projects_build_against_the_installed_library() {
         "-DCMAKE_BUILD_TYPE=Release",
     ]);
     cmake(&["--build", &s(&app)]);
-    let path = manifest().join(KITTI_00_MONO);
+    let Some(path) = data(KITTI_00_MONO) else {
+        return;
+    };
     let out = run(&app.join("vo_loop"), &[path.to_str().unwrap(), "--wait"]);
     assert_eq!(candidate_lines(&out), rust_candidates(&path));
 

@@ -88,8 +88,7 @@ pub fn kitti_gt(name: &str) -> Option<Vec<Vector3<f64>>> {
 }
 
 /// A GPX 1.1 track of the first `rows` fixes of the real GPS of KITTI 00
-/// (`gtsam_data/KittiGps_converted.txt`, `Time,X,Y,Z` metres), as
-/// `scripts/make_gpx_fixture.py` makes it: (X, Y, Z) minus the first row
+/// (`gtsam_data/KittiGps_converted.txt`, `Time,X,Y,Z` metres): (X, Y, Z) minus the first row
 /// read as east-north-up metres around an origin near Karlsruhe, turned
 /// back into WGS84 latitude, longitude and ellipsoidal height (ENU -> ECEF
 /// -> geodetic by Bowring's iteration, written apart from the reader's
@@ -139,7 +138,7 @@ fn gpx_of_rows(rows: &[Vec<f64>]) -> String {
     let (sp, cp, sl, cl) = (phi.sin(), phi.cos(), lam.sin(), lam.cos());
     let mut out = vec![
         r#"<?xml version="1.0" encoding="UTF-8"?>"#.to_string(),
-        r#"<gpx version="1.1" creator="turnprint scripts/make_gpx_fixture.py" xmlns="http://www.topografix.com/GPX/1/1">"#.to_string(),
+        r#"<gpx version="1.1" creator="turnprint tests" xmlns="http://www.topografix.com/GPX/1/1">"#.to_string(),
         "  <trk>".to_string(),
         format!("    <name>KITTI 00 GPS, first {} fixes</name>", rows.len()),
         "    <trkseg>".to_string(),

@@ -7,7 +7,7 @@
 //!
 //! ```no_run
 //! use std::time::Duration;
-//! use turnprint::ipc::{CameraParams, Candidate, ClientConfig, Outcome, VerifierClient};
+//! use turnprint_ipc::{CameraParams, Candidate, ClientConfig, Outcome, VerifierClient};
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! // The verifier runs as `turnprint-verifier --prefix robot1`.
