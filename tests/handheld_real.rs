@@ -119,6 +119,43 @@ fn a_camera_held_still_is_no_loop_at_scale_zero() {
     }
 }
 
+/// A loop of the motion capture onto itself is at scale 1 to within this.
+const MAX_SCALE_ERROR: f64 = 0.1;
+/// Its paired poses are apart by at most this fraction of the matched length
+/// (the same place, up to the path's own smoothing).
+const MAX_APART: f64 = 0.05;
+
+/// The desk's only revisit is its last 2-3 m (of 18.3 m) coming back within
+/// 0.1-0.3 m of its start. Every reported loop is checked against the motion
+/// capture: a true loop maps the path onto itself at scale 1 with its paired
+/// poses at the same place.
+#[test]
+#[ignore = "known limit (EVALUATION.md, Limits of loops): all 10 loops of fr2/desk are elsewhere or centimetres long; its revisit is shorter than any loop found"]
+fn the_loops_of_the_hand_held_path_are_its_revisit() {
+    let Some(gt) = read("fr2_desk_groundtruth.txt") else {
+        return;
+    };
+    let loops = find_loops(&gt, &Config::for_loops()).expect("loops");
+    let mut bad = 0;
+    for l in &loops {
+        let mut apart: Vec<f64> = l
+            .correspondences
+            .iter()
+            .map(|&(a, b)| (gt.poses[a].position - gt.poses[b].position).norm())
+            .collect();
+        apart.sort_by(f64::total_cmp);
+        let median = apart[apart.len() / 2];
+        eprintln!(
+            "loop {} a {:?} b {:?}: scale {:.4}, paired poses {:.3} m apart (median) of {:.2} m matched",
+            l.rank, l.a_range, l.b_range, l.scale, median, l.length
+        );
+        bad += usize::from(
+            (l.scale - 1.0).abs() >= MAX_SCALE_ERROR || median >= MAX_APART * l.length,
+        );
+    }
+    assert_eq!(bad, 0, "{bad} of {} loops are not the same place", loops.len());
+}
+
 /// A third of the hand-held path, under a random similarity (scale
 /// 0.01-100, any rotation, either direction), matched against the whole:
 /// twelve fixed draws. The part's best-fit plane is not the whole's (the

@@ -225,6 +225,13 @@ fn a_replay_gives_the_same_candidates_whether_or_not_its_queue_filled() {
     let (fast, fast_summary) = run(None);
     let (slow, slow_summary) = run(Some(16));
     assert!(!fast.is_empty());
+    // The caller at memory speed did wait out a full queue (the paced one
+    // rarely does, on a loaded machine sometimes).
+    assert!(fast_summary.waited > 0, "{fast_summary:?}");
+    eprintln!(
+        "waits on a full queue: {} at memory speed, {} paced",
+        fast_summary.waited, slow_summary.waited
+    );
     assert_eq!(fast_summary.messages, fast_summary.worker.messages);
     assert_eq!(fast_summary.worker.messages, slow_summary.worker.messages);
     let key = |c: &turnprint::online::CandidateEvent| {

@@ -1,5 +1,5 @@
 /*
- * turnprint from C and C++ (and Python, capi/python/turnprint.py):
+ * turnprint from C and C++ (Python has its own package, crates/turnprint-python):
  * - the online loop-closure detector: push one pose at a time from the
  *   odometry thread (under a microsecond; matching runs on the detector's
  *   own worker thread), poll the candidates whenever convenient;

@@ -1,5 +1,5 @@
 //! C ABI of turnprint (`include/turnprint.h`), so a visual-odometry or
-//! mapping process written in C, C++ or Python (ctypes) uses the library in
+//! mapping process written in C or C++ uses the library in
 //! its own address space.
 //!
 //! Every entry point checks its pointers, catches panics (a panic never

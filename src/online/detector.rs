@@ -82,8 +82,10 @@ pub struct Summary {
     pub guards: GuardCounts,
     /// Messages handed to the worker.
     pub messages: u64,
-    /// Sends deferred because the queue was full.
+    /// Sends deferred because the queue was full ([`Overflow::MergeLatest`]).
     pub deferred: u64,
+    /// Sends that waited for a full queue to drain ([`Overflow::Block`]).
+    pub waited: u64,
     /// What the worker did.
     pub worker: WorkerStats,
     /// 1 when the worker's thread stopped before the end (a panic): the
@@ -352,6 +354,7 @@ impl Detector {
                 // has no word to wait for, just blocks).
                 match w.tx.try_send(m) {
                     Err(TrySendError::Full(m)) => {
+                        self.summary.waited += 1;
                         let _ = w.room.recv();
                         w.tx.send(m).is_ok()
                     }

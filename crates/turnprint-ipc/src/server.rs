@@ -55,6 +55,11 @@ pub trait FrameVerifier {
     fn evict_oldest(&mut self) -> bool {
         false
     }
+    /// Keyframes the verifier evicted by itself (under a cap of its own)
+    /// since the last call, so that the status counts every eviction.
+    fn take_evicted(&mut self) -> u64 {
+        0
+    }
 }
 
 /// Settings of the verifier loop.
@@ -267,6 +272,8 @@ impl<V: FrameVerifier + ?Sized> Loop<'_, V> {
         while self.verifier.memory_bytes() > max && self.verifier.evict_oldest() {
             Counters::bump(&c.keyframes_evicted);
         }
+        c.keyframes_evicted
+            .fetch_add(self.verifier.take_evicted(), Ordering::Relaxed);
         c.memory_bytes
             .store(self.verifier.memory_bytes() as u64, Ordering::Relaxed);
     }

@@ -50,6 +50,10 @@ impl FrameVerifier for OrbVerifier {
         }
     }
 
+    fn take_evicted(&mut self) -> u64 {
+        OrbVerifier::take_evicted(self)
+    }
+
     fn memory_bytes(&self) -> usize {
         OrbVerifier::memory_bytes(self)
     }

@@ -121,6 +121,8 @@ pub struct OrbVerifier {
     lru: BTreeMap<u64, u64>,
     clock: u64,
     bytes: usize,
+    /// Keyframes evicted under the memory cap since [`OrbVerifier::take_evicted`].
+    evicted: u64,
 }
 
 impl OrbVerifier {
@@ -134,6 +136,7 @@ impl OrbVerifier {
             lru: BTreeMap::new(),
             clock: 0,
             bytes: 0,
+            evicted: 0,
         })
     }
 
@@ -172,6 +175,7 @@ impl OrbVerifier {
             };
             if let Some(entry) = self.store.remove(&oldest) {
                 self.bytes -= entry.bytes;
+                self.evicted += 1;
             }
         }
         self.clock += 1;
@@ -186,6 +190,11 @@ impl OrbVerifier {
         );
         self.bytes += bytes;
         Ok(())
+    }
+
+    /// Keyframes evicted under the memory cap since the last call.
+    pub fn take_evicted(&mut self) -> u64 {
+        std::mem::take(&mut self.evicted)
     }
 
     /// Forgets a keyframe; true when it was stored.

@@ -1,5 +1,6 @@
 //! Faults between the detector and the real `turnprint-verifier` process:
-//! `kill -9` mid-run, restart under the same prefix, and a keyframe flood.
+//! `kill -9` mid-run, restart under the same prefix, and a keyframe flood
+//! through the memory cap.
 
 mod ipc_support;
 
@@ -202,8 +203,10 @@ fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
         "{after_flood:?}"
     );
 
-    // Paced: each keyframe processed, 40 x ~80 KB of features through a 1 MB cap.
-    for k in flood..flood + 40 {
+    // Paced: each keyframe processed, 100 x about 23 kB of features through
+    // a 1 MB cap.
+    let paced = 100u64;
+    for k in flood..flood + paced {
         let img = &frames[(k % 2) as usize];
         c.publish_keyframe(k, k as f64 * 0.1, &camera, &img.pixels)
             .unwrap();
@@ -215,15 +218,35 @@ fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
     eprintln!("after pacing: {status:?}, rss before {rss_before} peak {rss_peak}");
     assert_eq!(
         status.keyframes_received + status.keyframes_dropped_queue,
-        flood + 40
+        flood + paced
     );
-    assert!(status.keyframes_added >= 40, "{status:?}");
-    // The features filled the cap (so old ones were evicted) and stayed under it.
+    assert!(status.keyframes_added >= paced, "{status:?}");
+    // The features filled the cap and stayed under it: the paced
+    // keyframes' features do not fit in 1 MB, so the least recently used
+    // ones were evicted, and counted.
     assert!(
         status.memory_bytes > cap / 2 && status.memory_bytes <= cap,
         "{status:?}"
     );
-    assert_eq!(c.stats().keyframes_sent, flood + 40);
+    assert!(status.keyframes_evicted >= paced / 4, "{status:?}");
+    // A candidate naming an evicted keyframe (the first paced one) ends
+    // with that reason; the last one is still held.
+    let id = c.submit(Candidate::between(flood + paced - 1, flood));
+    let outcome = collect(&mut c, 1, Duration::from_secs(10));
+    match outcome.as_slice() {
+        [Outcome::Rejected {
+            id: got,
+            reason_code,
+            reason,
+            ..
+        }] => {
+            assert_eq!(*got, id);
+            assert_eq!(*reason_code, turnprint_ipc::payload::reason::UNKNOWN_KEYFRAME);
+            assert!(reason.contains(&format!("keyframe {flood} unknown")), "{reason}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(c.stats().keyframes_sent, flood + paced);
     assert_eq!(c.stats().keyframes_failed, 0);
     // Resident memory grows by the bounded queue and the capped features,
     // not with the 470 MB that went through.
