@@ -4,7 +4,7 @@
 //! A candidate is wrong when its two ranges are not the same road
 //! ([`common::is_correct`]: `eval::checks::loop_correct`, 10 m). The
 //! default settings, so that what a user gets is what is bounded. The
-//! measured counts (of all emitted, 68 / 31 / 33 / 14 / 23 on ground truth)
+//! measured counts (of all emitted, 71 / 31 / 32 / 14 / 20 on ground truth)
 //! are where the detector stands, not a goal: the verifier is the judge of
 //! a candidate, and EVALUATION_ONLINE.md reports the share that is right.
 
@@ -55,7 +55,7 @@ fn bounded(
 fn wrong_candidates_on_ground_truth_stay_at_their_measured_level() {
     bounded(
         "ground truth",
-        &[("00", 21), ("02", 14), ("05", 3), ("06", 3), ("08", 2)],
+        &[("00", 24), ("02", 14), ("05", 3), ("06", 3), ("08", 3)],
         |d| {
             let truth = common::kitti_gt(d)?;
             Some((truth.clone(), truth))
@@ -67,7 +67,7 @@ fn wrong_candidates_on_ground_truth_stay_at_their_measured_level() {
 fn wrong_candidates_under_strong_drift_stay_at_their_measured_level() {
     bounded(
         "strong drift, seed 1",
-        &[("00", 29), ("02", 14), ("05", 4), ("06", 17), ("08", 0)],
+        &[("00", 32), ("02", 16), ("05", 4), ("06", 17), ("08", 0)],
         |d| {
             let truth = common::kitti_gt(d)?;
             let mut rng = rand::rngs::StdRng::seed_from_u64(1);
@@ -81,7 +81,7 @@ fn wrong_candidates_under_strong_drift_stay_at_their_measured_level() {
 fn wrong_candidates_on_monocular_estimates_stay_at_their_measured_level() {
     bounded(
         "monocular ORB-SLAM2",
-        &[("00", 20), ("02", 20), ("05", 3), ("06", 4), ("08", 9)],
+        &[("00", 21), ("02", 18), ("05", 5), ("06", 4), ("08", 9)],
         |d| {
             let dir = common::shared_dir(&[
                 &format!("kitti_gt/{d}.txt"),

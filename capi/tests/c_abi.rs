@@ -294,27 +294,32 @@ fn library_merges_and_loops(gt: &Path, mono: &Path) -> Vec<String> {
         )
     };
     let top5 = |c: Config| Config { top_k: 5, ..c };
-    let mut lines: Vec<String> = match_paths(&a, &b, &top5(Config::for_matching()))
-        .unwrap()
-        .iter()
-        .map(|h| line("match", h))
-        .collect();
-    lines.extend(
-        find_loops(&b, &top5(Config::for_loops()))
-            .unwrap()
-            .iter()
-            .map(|h| line("loop", h)),
-    );
+    let merges = match_paths(&a, &b, &top5(Config::for_matching())).unwrap();
+    let loops = find_loops(&b, &top5(Config::for_loops())).unwrap();
     // The monocular estimate onto the ground truth at its true scale (about
-    // 16) as rank 1, and its big revisit among the loops.
+    // 16) as rank 1, and its big revisit (poses 380-953 again at 3384-3848)
+    // among the loops. Ranges are held to a few poses, not exactly, so that
+    // a change of smoothing that moves a boundary by one sample is no failure
+    // here: the comparison with C below is exact.
+    let near = |r: [usize; 2], want: [usize; 2]| {
+        r[0].abs_diff(want[0]) <= 10 && r[1].abs_diff(want[1]) <= 10
+    };
+    let first = &merges[0];
     assert!(
-        lines[0].starts_with("match a=7-4535 b=0-4536"),
+        near(first.a_range, [7, 4535])
+            && near(first.b_range, [0, 4536])
+            && (15.0..17.5).contains(&first.scale)
+            && !first.reversed,
         "{}",
-        lines[0]
+        line("match", first)
     );
-    assert!(lines
-        .iter()
-        .any(|l| l.starts_with("loop a=3384-3848 b=380-953")));
+    assert!(
+        loops.iter().any(|h| near(h.a_range, [3384, 3848]) && near(h.b_range, [380, 953])),
+        "{:?}",
+        loops.iter().map(|h| line("loop", h)).collect::<Vec<_>>()
+    );
+    let mut lines: Vec<String> = merges.iter().map(|h| line("match", h)).collect();
+    lines.extend(loops.iter().map(|h| line("loop", h)));
     lines
 }
 

@@ -173,21 +173,18 @@ fn graf_matches_agree_with_the_true_homography() {
         "{good} of {} matches agree with H",
         pairs.len()
     );
-    // The geometric test keeps matches that are consistent with the true homography.
+    // graf is a painted wall: a plane fits no unique essential matrix, so
+    // the pair passes the match gate and falls at the geometric test (the
+    // decomposition's points do not lie in front of both cameras) instead
+    // of being confirmed with a made-up baseline.
     let verdict = v.verify(1, 3);
     eprintln!("graf1-graf3 verdict: {}", verdict.reason);
-    if let Some(pose) = &verdict.pose {
-        let bad = pose
-            .inliers
-            .iter()
-            .filter(|&&k| err(pairs[k]) >= 5.0)
-            .count();
-        assert!(
-            bad * 10 <= pose.inliers.len(),
-            "{bad} of {} inliers disagree with H",
-            pose.inliers.len()
-        );
-    }
+    assert!(verdict.matches >= good, "{verdict:?}");
+    assert!(
+        !verdict.confirmed() && verdict.reason.contains("in front of both cameras"),
+        "{}",
+        verdict.reason
+    );
 }
 
 /// OpenCV's BFMatcher (Hamming) with the same ratio, cap and mutual check.
