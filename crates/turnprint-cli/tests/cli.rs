@@ -369,18 +369,21 @@ fn merge_writes_tum_and_a_figure() {
 
 #[test]
 fn merge_of_paths_with_no_common_road_warns_and_min_score_refuses() {
-    // KITTI 00 (ground truth) and 06 (monocular ORB-SLAM2) share no road:
-    // whatever ranks first is a look-alike.
-    let (Some(kitti00), Some(mono00), Some(mono06)) = (
+    // KITTI 00 (ground truth) and 02 (monocular ORB-SLAM2) share no road:
+    // whatever ranks first is a look-alike, here at score 0.025, a quarter
+    // of the warning's 0.1. Not every such pair is this weak: 36 of the 160
+    // negatives of EVALUATION.md score above 0.1 (00 against 06 mono: 0.137),
+    // and those merge without a warning.
+    let (Some(kitti00), Some(mono00), Some(mono02)) = (
         data("kitti_gt/00.txt"),
         data("kitti_orbslam2_vio/00_orbslam2_tum.txt"),
-        data("kitti_orbslam2_vio/06_orbslam2_tum.txt"),
+        data("kitti_orbslam2_vio/02_orbslam2_tum.txt"),
     ) else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
     let out_tum = dir.path().join("merged.tum");
-    let args = ["merge", &kitti00, &mono06, "-o", out_tum.to_str().unwrap()];
+    let args = ["merge", &kitti00, &mono02, "-o", out_tum.to_str().unwrap()];
     let out = turnprint(&args);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
@@ -388,7 +391,7 @@ fn merge_of_paths_with_no_common_road_warns_and_min_score_refuses() {
     assert!(out_tum.exists());
     std::fs::remove_file(&out_tum).unwrap();
     let refused = turnprint(&[&args[..], &["--min-score", "0.1"]].concat());
-    assert_clean_error(&refused, Path::new("06_orbslam2_tum.txt"), None);
+    assert_clean_error(&refused, Path::new("02_orbslam2_tum.txt"), None);
     assert!(!out_tum.exists(), "nothing written");
     // A true merge neither warns nor is refused.
     let good = turnprint(&[
