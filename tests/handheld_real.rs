@@ -149,11 +149,15 @@ fn the_loops_of_the_hand_held_path_are_its_revisit() {
             "loop {} a {:?} b {:?}: scale {:.4}, paired poses {:.3} m apart (median) of {:.2} m matched",
             l.rank, l.a_range, l.b_range, l.scale, median, l.length
         );
-        bad += usize::from(
-            (l.scale - 1.0).abs() >= MAX_SCALE_ERROR || median >= MAX_APART * l.length,
-        );
+        bad +=
+            usize::from((l.scale - 1.0).abs() >= MAX_SCALE_ERROR || median >= MAX_APART * l.length);
     }
-    assert_eq!(bad, 0, "{bad} of {} loops are not the same place", loops.len());
+    assert_eq!(
+        bad,
+        0,
+        "{bad} of {} loops are not the same place",
+        loops.len()
+    );
 }
 
 /// A third of the hand-held path, under a random similarity (scale

@@ -141,7 +141,14 @@ proptest! {
 /// `tolerance`, each with how far its nearest counterpart is.
 fn moved(fa: &[f64], fb: &[f64], tolerance: f64) -> Vec<(f64, f64)> {
     fa.iter()
-        .map(|f| (*f, fb.iter().map(|g| (f - g).abs()).fold(f64::INFINITY, f64::min)))
+        .map(|f| {
+            (
+                *f,
+                fb.iter()
+                    .map(|g| (f - g).abs())
+                    .fold(f64::INFINITY, f64::min),
+            )
+        })
         .filter(|&(_, d)| d >= tolerance)
         .collect()
 }
@@ -166,9 +173,19 @@ fn reversed_copies_keep_most_boundaries() {
     let (mut kept, mut total, mut worst) = (0usize, 0usize, 1.0f64);
     for case in 0..128 {
         let a = kitti_window(case % DRIVES.len(), rng.random(), 2000).unwrap();
-        let axis = [rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)];
+        let axis = [
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        ];
         let r = rotation(axis, rng.random_range(0.0..std::f64::consts::TAU));
-        let b = disguise(&a, 10f64.powf(rng.random_range(-2.0..2.0)), &r, &Vector3::new(5.0, -3.0, 1.0), true);
+        let b = disguise(
+            &a,
+            10f64.powf(rng.random_range(-2.0..2.0)),
+            &r,
+            &Vector3::new(5.0, -3.0, 1.0),
+            true,
+        );
         let fa = boundary_fractions(&PreparedPath::new(&a, &config).unwrap());
         let fb: Vec<f64> = boundary_fractions(&PreparedPath::new(&b, &config).unwrap())
             .iter()

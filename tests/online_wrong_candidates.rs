@@ -45,7 +45,9 @@ fn bounded(
         let (emitted, wrong) = wrong_of(&streamed, &truth);
         eprintln!("{what} {drive}: {wrong} wrong of {emitted} (measured {measured})");
         if wrong > allowed(measured) {
-            over.push(format!("{drive}: {wrong} wrong of {emitted}, measured {measured}"));
+            over.push(format!(
+                "{drive}: {wrong} wrong of {emitted}, measured {measured}"
+            ));
         }
     }
     assert!(over.is_empty(), "{what}: {over:?}");
@@ -89,7 +91,12 @@ fn wrong_candidates_on_monocular_estimates_stay_at_their_measured_level() {
                 &format!("kitti_orbslam2_vio/{d}_orbslam2_tum.txt"),
             ])?;
             let seq = load_sequence(&dir, d).expect("the sequence loads");
-            let truth = seq.mono.frames.iter().map(|&f| seq.true_position(f)).collect();
+            let truth = seq
+                .mono
+                .frames
+                .iter()
+                .map(|&f| seq.true_position(f))
+                .collect();
             Some((seq.mono.positions, truth))
         },
     );

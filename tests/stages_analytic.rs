@@ -101,19 +101,31 @@ fn the_turning_of_a_circle_is_its_arc_length_over_its_radius() {
         // arc length (K = s / r), and each holds sqrt(1 / r).
         let n = sig.s.len();
         assert!(n > 300, "scale {scale}: {n} samples");
-        let steps: Vec<f64> = sig.s.windows(2).map(|w| (w[1] - w[0]) / (r * sig.dk)).collect();
+        let steps: Vec<f64> = sig
+            .s
+            .windows(2)
+            .map(|w| (w[1] - w[0]) / (r * sig.dk))
+            .collect();
         let inner = &steps[n / 10..n - n / 10];
         let worst = inner.iter().map(|x| (x - 1.0).abs()).fold(0.0, f64::max);
         // The sign of curvature depends on which side the fitted plane's
         // normal points: direction-free, so only its size is checked.
         let value = sig.value[n / 2].abs() * r.sqrt();
         let turned = n as f64 * sig.dk;
-        eprintln!("circle at scale {scale}: ds/dK off by {worst:.4}, value {value:.4}, K {turned:.3}");
+        eprintln!(
+            "circle at scale {scale}: ds/dK off by {worst:.4}, value {value:.4}, K {turned:.3}"
+        );
         assert!(worst < 0.02, "scale {scale}: ds/dK off by {worst:.4}");
-        assert!((value - 1.0).abs() < 0.01, "scale {scale}: value {value:.4}");
+        assert!(
+            (value - 1.0).abs() < 0.01,
+            "scale {scale}: value {value:.4}"
+        );
         // Two full turns: K spans 4 pi less what the ends' smoothing and
         // dead band take.
-        assert!(turned > 0.9 * 4.0 * PI && turned < 4.0 * PI, "scale {scale}: K {turned:.3}");
+        assert!(
+            turned > 0.9 * 4.0 * PI && turned < 4.0 * PI,
+            "scale {scale}: K {turned:.3}"
+        );
     }
 }
 
@@ -188,14 +200,20 @@ fn segment_boundaries_fall_at_the_apexes_and_mid_straights() {
         eprintln!("corners at scale {scale}: boundaries at {found:.1?}, expected {expected:?}");
         let near = |f: f64, &(e, tolerance): &(f64, f64)| (f - e).abs() < tolerance;
         for e in &expected {
-            assert!(found.iter().any(|f| near(*f, e)), "scale {scale}: none at {e:?}");
+            assert!(
+                found.iter().any(|f| near(*f, e)),
+                "scale {scale}: none at {e:?}"
+            );
         }
         for f in &found {
             assert!(
                 expected.iter().chain([&last_apex]).any(|e| near(*f, e)),
                 "scale {scale}: a boundary at {f:.1}"
             );
-            assert!(!near(*f, &wide_apex), "scale {scale}: the 120° apex is a boundary");
+            assert!(
+                !near(*f, &wide_apex),
+                "scale {scale}: the 120° apex is a boundary"
+            );
         }
         // The pieces' fitted curvature: zero mid-straight, the corner's
         // peak at an apex (to 10 % of the largest peak, the smoothing's

@@ -314,7 +314,9 @@ fn library_merges_and_loops(gt: &Path, mono: &Path) -> Vec<String> {
         line("match", first)
     );
     assert!(
-        loops.iter().any(|h| near(h.a_range, [3384, 3848]) && near(h.b_range, [380, 953])),
+        loops
+            .iter()
+            .any(|h| near(h.a_range, [3384, 3848]) && near(h.b_range, [380, 953])),
         "{:?}",
         loops.iter().map(|h| line("loop", h)).collect::<Vec<_>>()
     );

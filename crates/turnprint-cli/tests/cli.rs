@@ -219,7 +219,12 @@ fn match_json_follows_the_contract() {
     // and the similarity puts the estimate's poses onto their true ones.
     let truth = read_positions(&kitti00);
     let mono = read_positions(&mono00);
-    let range = |v: &serde_json::Value| [v[0].as_u64().unwrap() as usize, v[1].as_u64().unwrap() as usize];
+    let range = |v: &serde_json::Value| {
+        [
+            v[0].as_u64().unwrap() as usize,
+            v[1].as_u64().unwrap() as usize,
+        ]
+    };
     let (a, b) = (range(&h["a_range"]), range(&h["b_range"]));
     let common = a[1].min(b[1]).saturating_sub(a[0].max(b[0]));
     assert!(common as f64 > 0.9 * (a[1] - a[0]) as f64, "{a:?} vs {b:?}");
@@ -230,11 +235,17 @@ fn match_json_follows_the_contract() {
         .collect();
     error.sort_by(f64::total_cmp);
     let median = error[error.len() / 2];
-    let length: f64 = truth[a[0]..=a[1]].windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    let length: f64 = truth[a[0]..=a[1]]
+        .windows(2)
+        .map(|w| (w[1] - w[0]).norm())
+        .sum();
     eprintln!("match: median error {median:.2} m over {length:.0} m");
     // The monocular estimate drifts in scale: within 0.2 % of the matched
     // length of the truth (measured: 5.0 m over 3712 m, 0.14 %).
-    assert!(median < 0.002 * length, "median error {median:.1} m over {length:.0} m");
+    assert!(
+        median < 0.002 * length,
+        "median error {median:.1} m over {length:.0} m"
+    );
 }
 
 /// The positions of a trajectory file, as the library reads it.
@@ -256,7 +267,12 @@ fn loops_json_follows_the_contract() {
     let loops = v["loops"].as_array().unwrap();
     assert!(!loops.is_empty() && loops.len() <= 10);
     let truth = read_positions(&kitti00);
-    let range = |v: &serde_json::Value| [v[0].as_u64().unwrap() as usize, v[1].as_u64().unwrap() as usize];
+    let range = |v: &serde_json::Value| {
+        [
+            v[0].as_u64().unwrap() as usize,
+            v[1].as_u64().unwrap() as usize,
+        ]
+    };
     let mut correct = 0;
     let mut rank1_correct = false;
     for l in loops {
@@ -273,9 +289,16 @@ fn loops_json_follows_the_contract() {
         rank1_correct |= ok && l["rank"] == 1;
         correct += usize::from(ok);
     }
-    eprintln!("loops: {correct} of {} correct, rank 1 correct: {rank1_correct}", loops.len());
+    eprintln!(
+        "loops: {correct} of {} correct, rank 1 correct: {rank1_correct}",
+        loops.len()
+    );
     assert!(rank1_correct, "the first loop is not a revisit");
-    assert!(correct >= MIN_CORRECT_LOOPS, "{correct} of {} loops correct", loops.len());
+    assert!(
+        correct >= MIN_CORRECT_LOOPS,
+        "{correct} of {} loops correct",
+        loops.len()
+    );
 }
 
 /// Correct loops among the ten `loops` reports on KITTI 00's ground truth

@@ -204,7 +204,10 @@ fn synthetic(dir: &Path) {
     for (walk, name) in [(true, "random walk"), (false, "systematic bias")] {
         let (mut ratios, mut kept) = (Vec::new(), Vec::new());
         let only = std::env::args().nth(1).unwrap_or_default();
-        for seq in ["00", "02", "05", "06", "08"].into_iter().filter(|s| s.contains(&only)) {
+        for seq in ["00", "02", "05", "06", "08"]
+            .into_iter()
+            .filter(|s| s.contains(&only))
+        {
             let Ok(gt) = read_trajectory(
                 &dir.join("kitti_gt").join(format!("{seq}.txt")),
                 Format::Kitti,

@@ -241,8 +241,14 @@ fn a_keyframe_flood_keeps_memory_bounded_and_counts_drops() {
             ..
         }] => {
             assert_eq!(*got, id);
-            assert_eq!(*reason_code, turnprint_ipc::payload::reason::UNKNOWN_KEYFRAME);
-            assert!(reason.contains(&format!("keyframe {flood} unknown")), "{reason}");
+            assert_eq!(
+                *reason_code,
+                turnprint_ipc::payload::reason::UNKNOWN_KEYFRAME
+            );
+            assert!(
+                reason.contains(&format!("keyframe {flood} unknown")),
+                "{reason}"
+            );
         }
         other => panic!("{other:?}"),
     }
