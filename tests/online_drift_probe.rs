@@ -28,14 +28,13 @@ fn correct_of(
     (correct, out.len())
 }
 
+/// A path's truth and its drifted copy.
+type TruthAndDrifted = (Vec<Vector3<f64>>, Vec<Vector3<f64>>);
+
 /// KITTI ground truth `name` from the shared data, and the same through
 /// the strong drift model times `factor` (random walks seeded with `seed`);
 /// `None` after a line saying it is skipped.
-fn truth_and_drifted(
-    name: &str,
-    factor: f64,
-    seed: u64,
-) -> Option<(Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+fn truth_and_drifted(name: &str, factor: f64, seed: u64) -> Option<TruthAndDrifted> {
     let truth = common::kitti_gt(name)?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let drifted = DriftModel::strong().scaled(factor).apply(&truth, &mut rng);

@@ -10,10 +10,13 @@ use turnprint_eval::drift::DriftModel;
 
 mod common;
 
+/// A path's truth and its drifted copy.
+type TruthAndDrifted = (Vec<Vector3<f64>>, Vec<Vector3<f64>>);
+
 /// The KITTI ground truth `file` (the shared data's layout, e.g.
 /// `kitti_gt/00.txt`) and the same under the strong drift model, `seed`;
 /// `None` after a line saying it is skipped.
-fn truth_and_drifted(file: &str, seed: u64) -> Option<(Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+fn truth_and_drifted(file: &str, seed: u64) -> Option<TruthAndDrifted> {
     let path = common::shared(file)?;
     let truth = read_trajectory(&path, Format::Kitti)
         .expect(file)

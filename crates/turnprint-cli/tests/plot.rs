@@ -8,10 +8,13 @@ use turnprint::io::{read_trajectory, Format};
 use turnprint::{Error, Hypothesis};
 use turnprint_cli::plot::{plot_loops, plot_merge};
 
+/// Two halves of KITTI 00 and the hypothesis that joins them.
+type Halves = (Vec<Vector3<f64>>, Vec<Vector3<f64>>, Hypothesis);
+
 /// A: KITTI 00 poses 0-3000; B: poses 1500-4540 shifted by 17 m,
 /// so B's first 1501 poses are A's poses 1500-3000 (B is already in A's
 /// frame: identity similarity). `None` when the data is absent.
-fn kitti00_halves() -> Option<(Vec<Vector3<f64>>, Vec<Vector3<f64>>, Hypothesis)> {
+fn kitti00_halves() -> Option<Halves> {
     let positions = kitti00()?;
     let a = positions[..=3000].to_vec();
     // A residual of some metres, as a drifting estimate has, so that the
