@@ -201,9 +201,9 @@ fn synthetic(dir: &Path) {
         "| drift | runs | median APE after / before | share improved 5x | median kept loops |"
     );
     println!("|---|---|---|---|---|");
+    let only = std::env::args().nth(1).unwrap_or_default();
     for (walk, name) in [(true, "random walk"), (false, "systematic bias")] {
         let (mut ratios, mut kept) = (Vec::new(), Vec::new());
-        let only = std::env::args().nth(1).unwrap_or_default();
         for seq in ["00", "02", "05", "06", "08"]
             .into_iter()
             .filter(|s| s.contains(&only))
