@@ -47,8 +47,8 @@ fn run() -> Result<(), String> {
     }
     let initial_cost = cost(&graph, &graph.poses);
     let start = Instant::now();
-    let solution = optimise(&graph, &graph.poses, &[], false, max_iterations)
-        .map_err(|e| format!("{file}: {e}"))?;
+    let solution =
+        optimise(&graph, &graph.poses, &[], max_iterations).map_err(|e| format!("{file}: {e}"))?;
     let time_s = start.elapsed().as_secs_f64();
     let out = serde_json::json!({
         "solver": "turnprint",

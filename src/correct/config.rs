@@ -112,6 +112,7 @@ impl OdometryNoise {
             translation: self.translation * (d * length).sqrt(),
             rotation: self.rotation * (d / length).sqrt(),
             log_scale: self.log_scale * (d / length).sqrt(),
+            slide: None,
         }
     }
 }
@@ -135,6 +136,11 @@ pub struct LoopNoise {
     /// a misfit `e` spread along a stretch of length `l` tilts a line fitted
     /// through it by about `e / (l / 4)` (the lever of a uniform spread).
     pub rotation_lever: f64,
+    /// Translation sigma along the road, as a fraction of the query length
+    /// ([`super::graph::Slide`]): 1, the overlap's own length. A fit that
+    /// slid further would no longer overlap; within it, only the road's
+    /// bends place the two passes along each other.
+    pub slide: f64,
 }
 
 impl Default for LoopNoise {
@@ -143,6 +149,7 @@ impl Default for LoopNoise {
             floor: 0.01,
             fit_floor: 0.002,
             rotation_lever: 4.0,
+            slide: 1.0,
         }
     }
 }
@@ -158,6 +165,7 @@ impl LoopNoise {
             translation: t * share,
             rotation: (self.rotation_lever * t / length).min(1.0) * share,
             log_scale: (self.rotation_lever * t / length).min(1.0) * share,
+            slide: None,
         }
     }
 }

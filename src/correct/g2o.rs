@@ -14,13 +14,14 @@
 //! [`from_g2o`] reads those and the planar `VERTEX_SE2 id x y θ` /
 //! `EDGE_SE2 from to x y θ` with its 3x3 upper triangle (x, y, θ), lifted to
 //! 3D with z = 0 and the rotation about z. A [`PoseGraph`]'s sigmas are
-//! isotropic per block, so the information must be diagonal with equal
-//! translation entries and equal rotation entries; anything else is an
-//! error, as is any line that is not one of these records. [`cost`] is the
+//! isotropic per block but for a loop edge's slide, so the information must
+//! be block diagonal, with equal rotation entries and a translation block
+//! equal on every axis or on all but one (a [`super::graph::Slide`] along
+//! it); anything else is an error, as is any line that is not one of these records. [`cost`] is the
 //! objective the solver minimises in the convention g2o and GTSAM report.
 
 use super::config::Group;
-use super::graph::{Edge, PoseGraph, Sigmas};
+use super::graph::{Edge, PoseGraph, Sigmas, Slide};
 use crate::geometry::Similarity3;
 use crate::{Error, Result};
 use apex_solver::manifold::se3::SE3;
@@ -44,20 +45,12 @@ pub fn to_g2o(graph: &PoseGraph) -> String {
         let _ = writeln!(out, "{vertex} {id} {}", pose(p, sim3));
     }
     for e in &graph.edges {
-        let s = e.sigmas;
-        let mut diag = vec![s.translation; 3];
-        diag.extend([s.rotation; 3]);
-        if sim3 {
-            diag.push(s.log_scale);
-        }
+        let w = e.sigmas.sqrt_information(sim3);
+        let full = w.transpose() * &w;
         let mut info = Vec::new();
-        for i in 0..diag.len() {
-            for j in i..diag.len() {
-                info.push(if i == j {
-                    1.0 / (diag[i] * diag[i])
-                } else {
-                    0.0
-                });
+        for i in 0..full.nrows() {
+            for j in i..full.ncols() {
+                info.push(full[(i, j)]);
             }
         }
         let info: Vec<String> = info.iter().map(|v| format!("{v:e}")).collect();
@@ -249,10 +242,16 @@ pub fn from_g2o(text: &str) -> Result<PoseGraph> {
 /// loop edges included.
 /// NaN when `poses` does not hold every node an edge names.
 pub fn cost(graph: &PoseGraph, poses: &[Similarity3]) -> f64 {
+    cost_of(graph, poses, |_| true)
+}
+
+/// [`cost`] over the edges `keep` admits.
+pub fn cost_of(graph: &PoseGraph, poses: &[Similarity3], keep: impl Fn(&Edge) -> bool) -> f64 {
     let sim3 = graph.group == Group::Sim3;
     graph
         .edges
         .iter()
+        .filter(|e| keep(e))
         .map(|e| {
             if e.from.max(e.to) >= poses.len() {
                 return f64::NAN;
@@ -273,16 +272,8 @@ pub fn cost(graph: &PoseGraph, poses: &[Similarity3]) -> f64 {
                     .as_slice()
                     .to_vec()
             };
-            let sigma = |k: usize| match k {
-                0..=2 => s.translation,
-                3..=5 => s.rotation,
-                _ => s.log_scale,
-            };
-            0.5 * r
-                .iter()
-                .enumerate()
-                .map(|(k, v)| (v / sigma(k)).powi(2))
-                .sum::<f64>()
+            let whitened = s.sqrt_information(sim3) * nalgebra::DVector::from_vec(r);
+            0.5 * whitened.norm_squared()
         })
         .sum()
 }
@@ -393,53 +384,96 @@ impl Kind {
     /// none.
     fn sigmas(self, upper: &[f64]) -> std::result::Result<Sigmas, String> {
         let d = self.dim();
-        let mut diag = Vec::with_capacity(d);
-        let mut off_max: f64 = 0.0;
+        let mut m = nalgebra::DMatrix::<f64>::zeros(d, d);
         let mut k = 0;
         for i in 0..d {
             for j in i..d {
-                if i == j {
-                    diag.push(upper[k]);
-                } else {
-                    off_max = off_max.max(upper[k].abs());
-                }
+                m[(i, j)] = upper[k];
+                m[(j, i)] = upper[k];
                 k += 1;
             }
         }
-        if let Some(bad) = diag.iter().find(|v| **v <= 0.0) {
+        if let Some(bad) = m.diagonal().iter().find(|v| **v <= 0.0) {
             return Err(format!("information diagonal entry {bad} is not positive"));
         }
-        let largest = diag.iter().cloned().fold(0.0, f64::max);
-        if off_max > INFO_TOLERANCE * largest {
+        let largest = m.diagonal().iter().cloned().fold(0.0, f64::max);
+        let tolerance = INFO_TOLERANCE * largest;
+        // Only the translation block may couple its own axes (a slide).
+        let nt = if self == Kind::Se2 { 2 } else { 3 };
+        let coupled = (0..d)
+            .flat_map(|i| (0..d).map(move |j| (i, j)))
+            .filter(|&(i, j)| i != j && !(i < nt && j < nt))
+            .map(|(i, j)| m[(i, j)].abs())
+            .fold(0.0, f64::max);
+        if coupled > tolerance {
             return Err(format!(
-                "information has off-diagonal entries (up to {off_max}): only a diagonal one \
-                 has per-block sigmas"
+                "information has off-diagonal entries (up to {coupled}) outside the \
+                 translation block: the graph's sigmas are one per block"
             ));
         }
-        let (translation, rotation, log_scale) = match self {
-            Kind::Se2 => (&diag[0..2], &diag[2..3], None),
-            Kind::Se3 => (&diag[0..3], &diag[3..6], None),
-            Kind::Sim3 => (&diag[0..3], &diag[3..6], Some(diag[6])),
+        let diag: Vec<f64> = m.diagonal().iter().copied().collect();
+        let (rotation, log_scale) = match self {
+            Kind::Se2 => (&diag[2..3], None),
+            Kind::Se3 => (&diag[3..6], None),
+            Kind::Sim3 => (&diag[3..6], Some(diag[6])),
         };
-        let one = |block: &[f64], what: &str| -> std::result::Result<f64, String> {
-            let first = block[0];
-            if block
-                .iter()
-                .any(|v| (v - first).abs() > INFO_TOLERANCE * first)
-            {
-                return Err(format!(
-                    "{what} information {block:?} differs between axes: the graph's sigmas \
-                     are one per block"
-                ));
-            }
-            Ok(1.0 / first.sqrt())
-        };
+        let first = rotation[0];
+        if rotation
+            .iter()
+            .any(|v| (v - first).abs() > INFO_TOLERANCE * first)
+        {
+            return Err(format!(
+                "rotation information {rotation:?} differs between axes: the graph's sigmas \
+                 are one per block"
+            ));
+        }
+        let (translation, slide) = translation_block(&m, nt)?;
         Ok(Sigmas {
-            translation: one(translation, "translation")?,
-            rotation: one(rotation, "rotation")?,
+            translation,
+            rotation: 1.0 / first.sqrt(),
             log_scale: log_scale.map_or(1.0, |v| 1.0 / v.sqrt()),
+            slide,
         })
     }
+}
+
+/// The translation sigma and slide of the first `n` rows of an information
+/// matrix: equal information on every axis (no slide), or equal on all but
+/// one axis, which has less (a slide along it). A planar graph's third axis
+/// takes the in-plane information across (see [`from_g2o`]).
+fn translation_block(
+    m: &nalgebra::DMatrix<f64>,
+    n: usize,
+) -> std::result::Result<(f64, Option<Slide>), String> {
+    let eig = nalgebra::SymmetricEigen::new(m.view((0, 0), (n, n)).into_owned());
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    let across = eig.eigenvalues[order[0]];
+    let least = eig.eigenvalues[order[n - 1]];
+    let equal = |v: f64| (v - across).abs() <= 1e3 * INFO_TOLERANCE * across;
+    if least <= 0.0 {
+        return Err("translation information is not positive definite".into());
+    }
+    if equal(least) {
+        return Ok((1.0 / across.sqrt(), None));
+    }
+    if !order[..n - 1].iter().all(|&k| equal(eig.eigenvalues[k])) {
+        return Err(format!(
+            "translation information has eigenvalues {:?}: the graph's translation sigmas \
+             are one across the road and one along it",
+            &eig.eigenvalues.as_slice()[..n]
+        ));
+    }
+    Ok((
+        1.0 / across.sqrt(),
+        Some(Slide {
+            direction: {
+                let v = eig.eigenvectors.column(order[n - 1]);
+                Vector3::new(v[0], v[1], if n == 3 { v[2] } else { 0.0 })
+            },
+            sigma: 1.0 / least.sqrt(),
+        }),
+    ))
 }
 
 fn parse_error(line: usize, message: impl Into<String>) -> Error {
@@ -501,6 +535,7 @@ mod tests {
             translation: 0.05,
             rotation: 0.01,
             log_scale: if group == Group::Sim3 { 0.2 } else { 1.0 },
+            slide: None,
         };
         let mut edges: Vec<Edge> = (0..3)
             .map(|k| Edge {
@@ -518,6 +553,10 @@ mod tests {
             sigmas: Sigmas {
                 translation: 0.5,
                 rotation: 0.1,
+                slide: Some(Slide {
+                    direction: Vector3::new(0.6, 0.8, 0.0),
+                    sigma: 20.0,
+                }),
                 ..sigmas
             },
             loop_id: Some(0),
@@ -555,6 +594,15 @@ mod tests {
                 if group == Group::Sim3 {
                     assert!(rel(a.sigmas.log_scale, b.sigmas.log_scale));
                 }
+                match (a.sigmas.slide, b.sigmas.slide) {
+                    (None, None) => {}
+                    (Some(x), Some(y)) => {
+                        // An eigenvector's sign is free.
+                        assert!((x.direction.dot(&y.direction).abs() - 1.0).abs() < 1e-9);
+                        assert!((x.sigma - y.sigma).abs() <= 1e-9 * x.sigma);
+                    }
+                    other => panic!("slide lost: {other:?}"),
+                }
                 // The format has no loop identity.
                 assert_eq!(b.loop_id, None);
             }
@@ -586,6 +634,31 @@ mod tests {
             cost(&g, &turned)
         );
         assert!(cost(&g, &g.poses[..2]).is_nan());
+    }
+
+    /// A loop edge's translation residual along its slide counts in the
+    /// slide's sigma, across it in the translation sigma.
+    #[test]
+    fn a_slide_frees_its_direction_only() {
+        let mut g = graph(Group::Se3);
+        // The loop measured as the nodes are: no residual to start from.
+        g.edges[3].from_T_to = g.poses[3].inverse().compose(&g.poses[0]);
+        let e = &g.edges[3];
+        let start = cost_of(&g, &g.poses, |x| x.loop_id.is_some());
+        assert!(start < 1e-20);
+        let moved_by = |offset: Vector3<f64>| {
+            let mut poses = g.poses.clone();
+            // Node 0 moved by `offset` in its own frame: the loop edge's
+            // residual, in node 0's frame, changes by about that.
+            poses[0] = poses[0].compose(&pose((0.0, 0.0, 0.0), offset.into(), 1.0));
+            cost_of(&g, &poses, |x| x.loop_id.is_some()) - start
+        };
+        let slide = e.sigmas.slide.unwrap();
+        let across = Vector3::new(-0.8, 0.6, 0.0);
+        let (along_cost, across_cost) = (moved_by(slide.direction), moved_by(across));
+        // 0.5 (1 / 20)² along, 0.5 (1 / 0.5)² across.
+        assert!((along_cost - 0.00125).abs() < 1e-9, "{along_cost}");
+        assert!((across_cost - 2.0).abs() < 1e-9, "{across_cost}");
     }
 
     #[test]
@@ -640,9 +713,16 @@ mod tests {
             (
                 edge(&format!(
                     "1 0 0 0 0 0 1 {}",
-                    info.replacen("1 0", "1 0.5", 1)
+                    info.replacen("1 0 0 0", "1 0 0 0.5", 1)
                 )),
                 "off-diagonal",
+            ),
+            (
+                edge(&format!(
+                    "1 0 0 0 0 0 1 {}",
+                    info.replacen("1 0", "1 0.5", 1)
+                )),
+                "eigenvalues",
             ),
             (
                 edge(&format!(

@@ -20,17 +20,78 @@ use crate::geometry::plane::Plane;
 use crate::geometry::Similarity3;
 use crate::trajectory::Trajectory;
 use crate::{Error, Result};
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
 /// Standard deviations of one edge, in its `from` node's units and radians.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sigmas {
-    /// Translation, each axis.
+    /// Translation, each axis (each axis across the road where the edge
+    /// has a [`Slide`]).
     pub translation: f64,
     /// Rotation, each axis (radians).
     pub rotation: f64,
     /// Natural log of the scale (Sim(3) graphs only).
     pub log_scale: f64,
+    /// A loop edge's freedom along the road; `None`: isotropic translation.
+    pub slide: Option<Slide>,
+}
+
+/// The direction in which a loop edge pins its node only loosely.
+///
+/// Two passes over one road fit each other across it, but along it only as
+/// far as the road bends: on a straight their fit can slide by tens of
+/// metres with no misfit at all. A loop edge therefore measures where its
+/// pose lies across the earlier pass, and along it only to within the
+/// overlap's length; edges spread along a bend, whose directions differ,
+/// then pin the loop along the road together where the shape does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slide {
+    /// Unit direction of travel in the `to` node's frame (the frame of the
+    /// translation residual).
+    pub direction: Vector3<f64>,
+    /// Translation sigma along it.
+    pub sigma: f64,
+}
+
+impl Sigmas {
+    /// `W` with `Wᵀ W` the information of the edge's residual
+    /// `[t (3), ω (3), ln s (Sim(3) only)]`. With a slide `d`, the
+    /// translation block is `(I - d dᵀ) / σ + d dᵀ / σ_d`: the two
+    /// projections are orthogonal, so its square is the information
+    /// `(I - d dᵀ) / σ² + d dᵀ / σ_d²`.
+    pub fn sqrt_information(&self, sim3: bool) -> DMatrix<f64> {
+        let n = if sim3 { 7 } else { 6 };
+        let mut w = DMatrix::zeros(n, n);
+        let t = self.translation_sqrt_information();
+        for i in 0..3 {
+            for j in 0..3 {
+                w[(i, j)] = t[(i, j)];
+            }
+            w[(3 + i, 3 + i)] = 1.0 / self.rotation;
+        }
+        if sim3 {
+            w[(6, 6)] = 1.0 / self.log_scale;
+        }
+        w
+    }
+
+    /// The translation block of [`Sigmas::sqrt_information`].
+    pub fn translation_sqrt_information(&self) -> Matrix3<f64> {
+        let across = Matrix3::identity() / self.translation;
+        match self.slide {
+            Some(s) => {
+                let ddt = s.direction * s.direction.transpose();
+                across - ddt / self.translation + ddt / s.sigma
+            }
+            None => across,
+        }
+    }
+
+    /// A translation residual (in the frame of the edge's `to` node) in
+    /// its sigmas: the norm of the whitened residual.
+    pub fn translation_misses(&self, r: &Vector3<f64>) -> f64 {
+        (self.translation_sqrt_information() * r).norm()
+    }
 }
 
 /// One relative-pose measurement between two nodes.
@@ -123,7 +184,9 @@ impl PoseGraph {
             });
         }
         for (id, l) in loops.iter().enumerate() {
-            edges.extend(loop_edges(&keyframes, &poses, &arc, l, id, group, config));
+            edges.extend(loop_edges(
+                &keyframes, &poses, &positions, &arc, l, id, group, config,
+            ));
         }
         Ok(PoseGraph {
             keyframes,
@@ -141,9 +204,11 @@ impl PoseGraph {
 
 /// Edges of one loop: up to `edges_per_loop` query keyframes spread over the
 /// query range, each tied to the match keyframe its point lands nearest to.
+#[allow(clippy::too_many_arguments)]
 fn loop_edges(
     keyframes: &[usize],
     poses: &[Similarity3],
+    positions: &[Vector3<f64>],
     arc: &[f64],
     l: &LoopClosure,
     id: usize,
@@ -166,6 +231,17 @@ fn loop_edges(
         .collect();
     let length = (arc[l.query_range[1]] - arc[l.query_range[0]]).max(f64::EPSILON);
     let sigmas = config.loop_noise.sigmas(l.rmse, length, picks);
+    let n = arc.len();
+    let slide = |i: usize| -> Option<Slide> {
+        // The direction of travel at keyframe `i`, in its own frame.
+        let k = keyframes[i];
+        let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
+        let world = positions[b] - positions[a];
+        (world.norm() > 0.0).then(|| Slide {
+            direction: poses[i].rotation.transpose() * world.normalize(),
+            sigma: config.loop_noise.slide * length * (picks as f64).sqrt(),
+        })
+    };
     chosen
         .into_iter()
         .filter_map(|i| {
@@ -189,7 +265,10 @@ fn loop_edges(
                 from: j,
                 to: i,
                 from_T_to: j_T_i,
-                sigmas,
+                sigmas: Sigmas {
+                    slide: slide(i),
+                    ..sigmas
+                },
                 loop_id: Some(id),
             })
         })

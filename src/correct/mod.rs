@@ -1,23 +1,26 @@
 //! Drift correction: the path's own motion and its loops in one pose graph,
-//! optimised robustly, give the path without the drift the loops reveal.
+//! optimised, give the path without the drift the loops reveal.
 //!
 //! ```text
 //! path -> loop search (pipeline::find_loops, as `loops`) -> LoopClosure
-//!      -> PoseGraph (keyframes, odometry edges, loop edges)
-//!      -> choice (apex-solver, DCS, residual gate, best loop first)
-//!      -> drift measured from the chosen loops -> final solve
-//!      -> every pose carried along by its keyframes
+//!      -> PoseGraph (keyframes, odometry edges, loop edges free along the road)
+//!      -> choice (apex-solver, least squares, rise of the cost, best loop first)
+//!      -> drift measured from the chosen loops, and the loops it explains
+//!      -> final solve -> every pose carried along by its keyframes
 //! ```
 //!
 //! Loops are chosen under the odometry prior, an upper bound on drift:
-//! they enter best score first, each solved robustly (dynamic covariance
-//! scaling) from the solution before it and kept only if every kept loop
-//! still fits within [`CorrectConfig::reject_above`] sigmas. The chosen
-//! loops' misses against the uncorrected path then measure the drift the
-//! path has (a maximum-likelihood factor on the prior's sigmas), and the
-//! final solve, plain least squares with each loop trusted as far as its
-//! own misfit says, moves the path only as far as that drift allows: loops
-//! that show no drift beyond their own noise leave the path as it was.
+//! they enter best score first, each solved from the solution before it
+//! and kept only if the cost rises by no more than a measurement of its
+//! degrees of freedom does (a χ² test at [`CorrectConfig::reject_above`]
+//! sigmas), so a loop at odds with the path's motion or with the loops kept
+//! is turned away. The chosen loops' misses against the uncorrected path
+//! then measure the drift the path has (a maximum-likelihood factor on the
+//! prior's sigmas, each loop either right or anywhere the prior reaches),
+//! which also turns away the loops that need far more drift than the others
+//! show. The final solve, plain least squares with each loop trusted as far
+//! as its own misfit says, moves the path only as far as that drift allows:
+//! loops that show no drift beyond their own noise leave the path as it was.
 
 // Frame names as in Sophus: `a_T_b` maps points from b to a.
 #![allow(non_snake_case)]
@@ -110,9 +113,8 @@ pub fn correct_again(
     config: &CorrectConfig,
 ) -> Result<Corrected> {
     // Choice: loops admitted under the odometry prior (an upper bound on
-    // drift) and the tolerant loop floor, robustly.
+    // drift) and the tolerant loop floor.
     let prior = PoseGraph::build(path, loops, config)?;
-    let (chosen, _) = admit(&prior, loops, kept, config)?;
     // Measurement: the chosen loops' misses against the path say how much it
     // drifts, with each loop trusted as far as its own misfit says. A loop
     // that only reflects its own noise (a lane's offset on a path without
@@ -124,7 +126,25 @@ pub fn correct_again(
         },
         ..config.clone()
     };
-    let k = drift_scale(&PoseGraph::build(path, loops, &fit)?, &chosen);
+    let measured = PoseGraph::build(path, loops, &fit)?;
+    // A loop the measured drift does not explain is banned and the choice
+    // made again without it: a wrong loop chosen early may have turned true
+    // ones away. Each round bans a loop, so this ends.
+    let mut banned = vec![false; loops.len()];
+    let (k, chosen) = loop {
+        let (chosen, _) = admit(&prior, loops, kept, &banned, config)?;
+        let (k, explained) = drift_scale(&measured, &chosen);
+        let mut again = false;
+        for id in 0..loops.len() {
+            if chosen[id] && !explained[id] {
+                banned[id] = true;
+                again = true;
+            }
+        }
+        if !again {
+            break (k, explained);
+        }
+    };
     let graph = PoseGraph::build(
         path,
         loops,
@@ -158,32 +178,46 @@ pub fn correct_again(
     })
 }
 
-/// Loops admitted one at a time, best score first, each solved warm from
-/// the solution before it (a true loop then starts near its fit, a wrong
-/// one far from it) and kept only if every kept loop still fits; loops
-/// turned away are tried again once the others have bent the path.
+/// Loops admitted one at a time, best score first, each by the rise of the
+/// graph's least-squares cost it brings: a loop whose miss the odometry
+/// prior's drift and the loops kept so far explain raises the cost by about
+/// its degrees of freedom; a wrong one, or one at odds with the loops kept,
+/// by far more ([`admits`]). Each is solved warm from the solution before
+/// it; loops turned away are tried again once the others have bent the
+/// path. Loops `banned` are left out. (A robust loss would not do here:
+/// from the uncorrected path a true loop starts tens of its sigmas off,
+/// where DCS gives it no weight.)
 fn admit(
     graph: &PoseGraph,
     loops: &[LoopClosure],
     kept: &[bool],
+    banned: &[bool],
     config: &CorrectConfig,
 ) -> Result<(Vec<bool>, Vec<Similarity3>)> {
-    let has_edges = |id: usize| graph.loop_edges(id).next().is_some();
+    let has_edges = |id: usize| !banned[id] && graph.loop_edges(id).next().is_some();
+    let dof = if graph.group == Group::Sim3 { 7.0 } else { 6.0 };
+    let cost = |solution: &[Similarity3], active: &[bool]| {
+        g2o::cost_of(graph, solution, |e| {
+            e.loop_id
+                .is_none_or(|id| active.get(id).copied().unwrap_or(false))
+        })
+    };
     let mut active = vec![false; loops.len()];
     let mut solution = graph.poses.clone();
+    let mut now = 0.0;
     // Loops kept before enter together when they still fit together.
     let before: Vec<bool> = (0..loops.len())
         .map(|id| kept.get(id).copied().unwrap_or(false) && has_edges(id))
         .collect();
+    let count = before.iter().filter(|k| **k).count();
     let mut warm = false;
-    if before.iter().any(|k| *k) {
-        let next = solve::optimise(graph, &solution, &before, true, config.max_iterations)?;
-        if (0..loops.len())
-            .filter(|&k| before[k])
-            .all(|k| residual(graph, &next, k) <= config.reject_above)
-        {
+    if count > 0 {
+        let next = solve::optimise(graph, &solution, &before, config.max_iterations)?;
+        let c = cost(&next, &before);
+        if admits(c, count as f64 * dof, config.reject_above) {
             active = before;
             solution = next;
+            now = c;
             warm = true;
         }
     }
@@ -197,17 +231,17 @@ fn admit(
         .collect();
     let mut accepted_since = vec![0usize; loops.len()];
     let mut accepted = 0;
-    let try_one =
+    let mut try_one =
         |id: usize, active: &mut Vec<bool>, solution: &mut Vec<Similarity3>| -> Result<bool> {
             let mut trial = active.clone();
             trial[id] = true;
-            let next = solve::optimise(graph, solution, &trial, true, config.max_iterations)?;
-            let fits = (0..loops.len())
-                .filter(|&k| trial[k])
-                .all(|k| residual(graph, &next, k) <= config.reject_above);
+            let next = solve::optimise(graph, solution, &trial, config.max_iterations)?;
+            let c = cost(&next, &trial);
+            let fits = admits(c - now, dof, config.reject_above);
             if fits {
                 *active = trial;
                 *solution = next;
+                now = c;
             }
             Ok(fits)
         };
@@ -227,6 +261,18 @@ fn admit(
     Ok((active, solution))
 }
 
+/// Whether a rise `rise` of the cost (half the χ² of the residuals) is
+/// within what measurements with `dof` degrees of freedom give at the
+/// probability of a normal variable within `sigmas` of its mean: half the
+/// χ² quantile, by Wilson and Hilferty's cube-root approximation,
+/// `k (1 - 2/(9k) + z √(2/(9k)))³` (within 10 % of the exact quantile
+/// from 6 degrees of freedom up at z = 3).
+fn admits(rise: f64, dof: f64, sigmas: f64) -> bool {
+    let h = 2.0 / (9.0 * dof);
+    let quantile = dof * (1.0 - h + sigmas * h.sqrt()).powi(3);
+    rise <= 0.5 * quantile
+}
+
 /// The chosen loops solved by plain least squares under the measured
 /// odometry noise (the choice already turned the gross outliers away, and
 /// a robust loss would hold back a true loop that starts many of its sigmas
@@ -242,7 +288,7 @@ fn settle(
         if !active.iter().any(|a| *a) {
             return Ok((active, graph.poses.clone()));
         }
-        let solution = solve::optimise(graph, &graph.poses, &active, false, config.max_iterations)?;
+        let solution = solve::optimise(graph, &graph.poses, &active, config.max_iterations)?;
         let worst = (0..loops.len())
             .filter(|&id| active[id])
             .map(|id| (id, residual(graph, &solution, id)))
@@ -260,50 +306,116 @@ fn settle(
 const MIN_DRIFT_SCALE: f64 = 1e-4;
 
 /// Maximum-likelihood factor `k` in (0, 1] on the odometry prior's sigmas,
-/// from the loops in `active`: each loop's miss against the uncorrected
-/// path, `d` (its edges' mean squared translation miss), is modelled per
-/// axis as `k² V / 3 + σ²`, where `σ` is the loop's own sigma and `V` the
-/// prior's variance of the odometry chain between its two poses (the
-/// translation random walk plus the heading random walk's lever to the far
-/// pose). The likelihood `Σ -3/2 ln v - d / (2 v)` is maximised on a log grid
-/// of tenths of a decade; 1 when no loop is active.
-fn drift_scale(graph: &PoseGraph, active: &[bool]) -> f64 {
-    let mut samples: Vec<(f64, f64, f64)> = Vec::new();
+/// from the loops in `active`, and the loops that drift explains.
+///
+/// Each loop's misses against the uncorrected path are modelled per axis as
+/// zero-mean: its translation miss across the road `d` (its edges' mean
+/// squared miss on the `a` axes a [`graph::Slide`] leaves) with variance
+/// `k² (V_t + V_l) / 3 + σ_t²`, and its rotation miss `ρ` (the mean squared
+/// angle, on 3 axes) with variance `k² V_r / 3 + σ_r²`, where the loop is
+/// right; `σ` are the loop's own sigmas, `V_t` and `V_r` the prior's
+/// translation and rotation variances of the odometry chain between its two
+/// poses and `V_l` the rotation's lever to the far pose. Where the loop is
+/// wrong, its misses are anywhere the prior reaches (`k = 1`), at even odds.
+/// `k` maximises the mixture's likelihood `Σ max(ln p_right, ln p_wrong)` on
+/// a log grid of tenths of a decade, and a loop more likely wrong than right
+/// at it leaves the set: a loop that needs far more drift than the others
+/// show (two parallel roads of one shape on a path that does not drift) is
+/// turned away, however much drift the prior would allow. `k` is 1 when no
+/// loop is active.
+fn drift_scale(graph: &PoseGraph, active: &[bool]) -> (f64, Vec<bool>) {
+    let mut samples: Vec<(usize, Misses)> = Vec::new();
     for (id, _) in active.iter().enumerate().filter(|(_, &a)| a) {
         let edges: Vec<&graph::Edge> = graph.loop_edges(id).collect();
-        let share2 = edges.len() as f64;
-        let (mut d, mut v, mut s) = (0.0, 0.0, 0.0);
+        let n = edges.len().max(1) as f64;
+        let mut m = Misses::default();
         for e in &edges {
-            let odo = graph.poses[e.from].inverse().compose(&graph.poses[e.to]);
-            d += (e.from_T_to.translation - odo.translation).norm_squared();
-            s += e.sigmas.translation.powi(2) / share2;
+            let r = miss(&graph.poses, e);
+            let (across, a) = match e.sigmas.slide {
+                Some(slide) => (r - slide.direction * slide.direction.dot(&r), 2.0),
+                None => (r, 3.0),
+            };
+            let predicted = graph.poses[e.from].compose(&e.from_T_to);
+            let angle = crate::geometry::similarity::angle_between(
+                &predicted.rotation,
+                &graph.poses[e.to].rotation,
+            );
+            m.translation += across.norm_squared() / n;
+            m.axes += a / n;
+            m.rotation += angle * angle / n;
+            // The loop's own variance: its edges share one measurement.
+            m.own_translation += e.sigmas.translation.powi(2) / (n * n);
+            m.own_rotation += e.sigmas.rotation.powi(2) / (n * n);
             let far = graph.poses[e.to].translation;
             let (a, b) = (e.from.min(e.to), e.from.max(e.to));
             for o in &graph.edges[a..b] {
                 let lever = (far - graph.poses[o.from].translation).norm_squared();
-                v += 3.0 * o.sigmas.translation.powi(2) + 2.0 * o.sigmas.rotation.powi(2) * lever;
+                m.chain_translation += 3.0 * o.sigmas.translation.powi(2) / n;
+                m.chain_lever += 2.0 * o.sigmas.rotation.powi(2) * lever / n;
+                m.chain_rotation += 3.0 * o.sigmas.rotation.powi(2) / n;
             }
         }
-        let n = edges.len().max(1) as f64;
-        samples.push((d / n, v / n, s / n));
+        samples.push((id, m));
     }
+    let mut kept = vec![false; active.len()];
     if samples.is_empty() {
-        return 1.0;
+        return (1.0, kept);
     }
     let log_likelihood = |k: f64| -> f64 {
         samples
             .iter()
-            .map(|&(d, v, s)| {
-                let var = k * k * v / 3.0 + s;
-                -1.5 * var.ln() - d / (2.0 * var)
-            })
+            .map(|(_, m)| m.ln_p(k).max(m.ln_p(1.0)))
             .sum()
     };
     let steps = (MIN_DRIFT_SCALE.log10().abs() * 10.0).round() as i32;
-    (0..=steps)
+    let k = (0..=steps)
         .map(|i| 10f64.powf(-(i as f64) / 10.0))
         .max_by(|&a, &b| log_likelihood(a).total_cmp(&log_likelihood(b)))
-        .unwrap_or(1.0)
+        .unwrap_or(1.0);
+    for (id, m) in &samples {
+        kept[*id] = m.ln_p(k) >= m.ln_p(1.0);
+    }
+    (k, kept)
+}
+
+/// One loop's misses against the uncorrected path and the variances that
+/// explain them ([`drift_scale`]).
+#[derive(Debug, Default)]
+struct Misses {
+    /// Mean squared translation miss across the road.
+    translation: f64,
+    /// Axes it is measured on.
+    axes: f64,
+    /// Mean squared rotation miss (radians², 3 axes).
+    rotation: f64,
+    /// The loop's own translation and rotation variances, per axis.
+    own_translation: f64,
+    own_rotation: f64,
+    /// The prior's chain variances (summed over 3 axes): translation, the
+    /// rotation's lever, rotation.
+    chain_translation: f64,
+    chain_lever: f64,
+    chain_rotation: f64,
+}
+
+impl Misses {
+    /// Log-likelihood of the misses with the prior's sigmas times `k`.
+    fn ln_p(&self, k: f64) -> f64 {
+        let vt = k * k * (self.chain_translation + self.chain_lever) / 3.0 + self.own_translation;
+        let vr = k * k * self.chain_rotation / 3.0 + self.own_rotation;
+        -0.5 * self.axes * vt.ln()
+            - self.translation / (2.0 * vt)
+            - 1.5 * vr.ln()
+            - self.rotation / (2.0 * vr)
+    }
+}
+
+/// The translation miss of loop edge `e` at `solution`, in the frame and
+/// units of its `to` node (the frame of its residual and its slide).
+fn miss(solution: &[Similarity3], e: &graph::Edge) -> nalgebra::Vector3<f64> {
+    let predicted = solution[e.from].compose(&e.from_T_to);
+    let actual = &solution[e.to];
+    actual.rotation.transpose() * (predicted.translation - actual.translation) / actual.scale
 }
 
 /// Median over the edges of loop `id` of the larger of the translation and
@@ -316,9 +428,7 @@ fn residual(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> f64 {
             let share = (graph.loop_edges(id).count() as f64).sqrt();
             let predicted = solution[e.from].compose(&e.from_T_to);
             let actual = &solution[e.to];
-            let units = solution[e.from].scale;
-            let dt = (predicted.translation - actual.translation).norm()
-                / (units * e.sigmas.translation / share);
+            let dt = e.sigmas.translation_misses(&miss(solution, e)) * share;
             let dr =
                 crate::geometry::similarity::angle_between(&predicted.rotation, &actual.rotation)
                     / (e.sigmas.rotation / share);

@@ -1,13 +1,12 @@
 //! Optimisation of a [`PoseGraph`] with apex-solver: Levenberg-Marquardt on
-//! SE(3) or Sim(3) nodes, the first node held fixed, loop edges under
-//! dynamic covariance scaling so that a loop at odds with the rest pulls
-//! less while the graph is solved.
+//! SE(3) or Sim(3) nodes, the first node held fixed, plain least squares
+//! (the loops at odds with the rest are turned away before, by the rise of
+//! the cost they bring: `correct::admit`).
 
 use super::config::Group;
 use super::graph::{Edge, PoseGraph};
 use crate::geometry::Similarity3;
 use crate::{Error, Result};
-use apex_solver::core::loss_functions::{DcsLoss, LossFunction};
 use apex_solver::core::problem::Problem;
 use apex_solver::factors::pose::BetweenFactor;
 use apex_solver::manifold::se3::SE3;
@@ -17,10 +16,6 @@ use apex_solver::{JacobianMode, ManifoldType, NoiseModel};
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use nalgebra_apex as na;
 
-/// DCS's Φ: 1, the value of Agarwal et al. (2013) for graphs whitened by
-/// their information, as these are.
-const DCS_PHI: f64 = 1.0;
-
 /// Relative change of the cost (and of the parameters) below which a solve
 /// stops: 1e-6. A millionth of the cost is far below the loops' own noise:
 /// every KITTI estimate's corrected APE is the same to the centimetre as
@@ -29,13 +24,11 @@ const DCS_PHI: f64 = 1.0;
 const COST_TOLERANCE: f64 = 1e-6;
 
 /// The optimised `world_T_node` of every node, starting from `start`, using
-/// the odometry edges and the loop edges whose loop is in `active`; loop
-/// edges under DCS when `robust`, plain least squares otherwise.
+/// the odometry edges and the loop edges whose loop is in `active`.
 pub fn optimise(
     graph: &PoseGraph,
     start: &[Similarity3],
     active: &[bool],
-    robust: bool,
     max_iterations: usize,
 ) -> Result<Vec<Similarity3>> {
     let mut problem = Problem::new(JacobianMode::Sparse);
@@ -57,13 +50,9 @@ pub fn optimise(
                 continue;
             }
         }
-        let loss: Option<Box<dyn LossFunction + Send + Sync>> = match e.loop_id {
-            Some(_) if robust => Some(Box::new(DcsLoss::new(DCS_PHI).map_err(solver_error)?)),
-            _ => None,
-        };
         let (factor, noise) = factor(e, graph.group)?;
         problem
-            .try_add_residual_block_with_noise(&[keys[e.from], keys[e.to]], factor, loss, noise)
+            .try_add_residual_block_with_noise(&[keys[e.from], keys[e.to]], factor, None, noise)
             .map_err(solver_error)?;
     }
     let config = LevenbergMarquardtConfig::new()
@@ -96,16 +85,24 @@ fn factor(e: &Edge, group: Group) -> Result<(Factor, NoiseModel)> {
     let m = &e.from_T_to;
     let q = apex_quaternion(m);
     let t = na::Vector3::new(m.translation.x, m.translation.y, m.translation.z);
-    let mut sigmas = vec![s.translation; 3];
-    sigmas.extend([s.rotation; 3]);
-    let factor: Factor = match group {
-        Group::Sim3 => {
-            sigmas.push(s.log_scale);
-            Box::new(BetweenFactor::new(Sim3::new(t, q, m.scale)))
-        }
-        _ => Box::new(BetweenFactor::new(SE3::new(t, q))),
+    let sim3 = group == Group::Sim3;
+    let factor: Factor = if sim3 {
+        Box::new(BetweenFactor::new(Sim3::new(t, q, m.scale)))
+    } else {
+        Box::new(BetweenFactor::new(SE3::new(t, q)))
     };
-    let noise = NoiseModel::from_sigmas(&sigmas).map_err(solver_error)?;
+    let noise = if s.slide.is_some() {
+        let w = s.sqrt_information(sim3);
+        NoiseModel::from_sqrt_info(na::DMatrix::from_fn(w.nrows(), w.ncols(), |i, j| w[(i, j)]))
+    } else {
+        let mut sigmas = vec![s.translation; 3];
+        sigmas.extend([s.rotation; 3]);
+        if sim3 {
+            sigmas.push(s.log_scale);
+        }
+        NoiseModel::from_sigmas(&sigmas)
+    }
+    .map_err(solver_error)?;
     Ok((factor, noise))
 }
 

@@ -33,7 +33,7 @@ fn compare(python: &Path, file: &Path, two_d: bool) {
     let graph = from_g2o(&text).expect("turnprint reads the graph");
     let initial = cost(&graph, &graph.poses);
     let start = Instant::now();
-    let solution = optimise(&graph, &graph.poses, &[], false, MAX_ITERATIONS).expect("solves");
+    let solution = optimise(&graph, &graph.poses, &[], MAX_ITERATIONS).expect("solves");
     let seconds = start.elapsed().as_secs_f64();
     let fin = cost(&graph, &solution);
     let mut args = vec!["solve", file.to_str().unwrap()];

@@ -260,7 +260,7 @@ fn run_turnprint(file: &str, g: &Graph, initial: f64) -> Row {
         Err(e) => return unavailable("turnprint (apex)", initial, format!("not expressible: {e}")),
     };
     let t = Instant::now();
-    let solution = optimise(&graph, &graph.poses, &[], false, MAX_ITERATIONS);
+    let solution = optimise(&graph, &graph.poses, &[], MAX_ITERATIONS);
     let seconds = t.elapsed().as_secs_f64();
     let solution = match solution {
         Ok(s) => s,
