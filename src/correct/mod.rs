@@ -129,10 +129,15 @@ pub fn correct_again(
     let measured = PoseGraph::build(path, loops, &fit)?;
     // A loop the measured drift does not explain is banned and the choice
     // made again without it: a wrong loop chosen early may have turned true
-    // ones away. Each round bans a loop, so this ends.
+    // ones away. The loops chosen and not banned enter together, and those
+    // turned away are tried again. Each round bans a loop, so this ends.
     let mut banned = vec![false; loops.len()];
+    let mut remaining: Option<Vec<bool>> = None;
     let (k, chosen) = loop {
-        let (chosen, _) = admit(&prior, loops, kept, &banned, config)?;
+        let (chosen, _) = match &remaining {
+            None => admit(&prior, loops, kept, &banned, false, config)?,
+            Some(r) => admit(&prior, loops, r, &banned, true, config)?,
+        };
         let (k, explained) = drift_scale(&measured, &chosen);
         let mut again = false;
         for id in 0..loops.len() {
@@ -144,6 +149,11 @@ pub fn correct_again(
         if !again {
             break (k, explained);
         }
+        remaining = Some(
+            (0..loops.len())
+                .map(|id| chosen[id] && !banned[id])
+                .collect(),
+        );
     };
     let graph = PoseGraph::build(
         path,
@@ -184,7 +194,7 @@ pub fn correct_again(
 /// its degrees of freedom; a wrong one, or one at odds with the loops kept,
 /// by far more ([`admits`]). Each is solved warm from the solution before
 /// it; loops turned away are tried again once the others have bent the
-/// path. Loops `banned` are left out. (A robust loss would not do here:
+/// path (with `retry`, in any case). Loops `banned` are left out. (A robust loss would not do here:
 /// from the uncorrected path a true loop starts tens of its sigmas off,
 /// where DCS gives it no weight.)
 fn admit(
@@ -192,6 +202,7 @@ fn admit(
     loops: &[LoopClosure],
     kept: &[bool],
     banned: &[bool],
+    retry: bool,
     config: &CorrectConfig,
 ) -> Result<(Vec<bool>, Vec<Similarity3>)> {
     let has_edges = |id: usize| !banned[id] && graph.loop_edges(id).next().is_some();
@@ -230,7 +241,8 @@ fn admit(
         .filter(|&id| has_edges(id) && !active[id])
         .collect();
     let mut accepted_since = vec![0usize; loops.len()];
-    let mut accepted = 0;
+    // `retry`: the loops turned away before are tried again in any case.
+    let mut accepted = usize::from(retry && warm);
     let mut try_one =
         |id: usize, active: &mut Vec<bool>, solution: &mut Vec<Similarity3>| -> Result<bool> {
             let mut trial = active.clone();
