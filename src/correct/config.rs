@@ -190,10 +190,13 @@ pub struct CorrectConfig {
     pub odometry: OdometryNoise,
     /// Loop edge noise.
     pub loop_noise: LoopNoise,
-    // --- robustness: a loop whose residual after optimisation exceeds 3
-    // of its sigmas is switched off.
-    /// Normalised residual (in the loop's sigmas) above which a loop is
-    /// rejected: 3, the usual three-sigma gate.
+    // --- robustness: a loop that raises the cost beyond a three-sigma χ²
+    // bound, or misses by more than 3 of its sigmas after the final solve,
+    // is switched off.
+    /// The gate in sigmas: 3, the usual three-sigma gate, both for the
+    /// rise of the cost a loop brings (the χ² quantile of a normal variable
+    /// within 3 sigmas) and for a loop's normalised residual in the final
+    /// solve.
     pub reject_above: f64,
     /// Levenberg-Marquardt iterations per solve, at most.
     pub max_iterations: usize,

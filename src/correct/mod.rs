@@ -194,9 +194,9 @@ pub fn correct_again(
 /// its degrees of freedom; a wrong one, or one at odds with the loops kept,
 /// by far more ([`admits`]). Each is solved warm from the solution before
 /// it; loops turned away are tried again once the others have bent the
-/// path (with `retry`, in any case). Loops `banned` are left out. (A robust loss would not do here:
-/// from the uncorrected path a true loop starts tens of its sigmas off,
-/// where DCS gives it no weight.)
+/// path (with `retry`, in any case). Loops `banned` are left out. (A robust
+/// loss would not do here: from the uncorrected path a true loop starts
+/// tens of its sigmas off, where DCS gives it no weight.)
 fn admit(
     graph: &PoseGraph,
     loops: &[LoopClosure],
