@@ -21,7 +21,7 @@ fn true_offset(l: &LoopClosure, truth: &[Vector3<f64>]) -> f64 {
 }
 
 /// MULLS run without its loop closure on KITTI 00 (APE 5.82 m): corrected
-/// to 3.05 m when measured (0.52 of before; bound 0.6); every loop kept is
+/// to 1.37 m when measured (0.24 of before; bound 0.3); every loop kept is
 /// a true revisit.
 #[test]
 fn correct_reduces_the_ape_of_lidar_odometry_without_loop_closure() {
@@ -37,7 +37,7 @@ fn correct_reduces_the_ape_of_lidar_odometry_without_loop_closure() {
     let before = ape(&est.positions(), &truth, Alignment::Se3).unwrap().rmse;
     let after_positions: Vec<_> = corrected.poses.iter().map(|p| p.position).collect();
     let after = ape(&after_positions, &truth, Alignment::Se3).unwrap().rmse;
-    assert!(after < 0.6 * before, "APE {before:.2} -> {after:.2}");
+    assert!(after < 0.3 * before, "APE {before:.2} -> {after:.2}");
     assert!(corrected.kept() >= 2, "{:?}", corrected.loops);
     for l in corrected.loops.iter().filter(|l| l.kept) {
         // A true revisit of KITTI: the two passes within a road's width.
@@ -46,6 +46,31 @@ fn correct_reduces_the_ape_of_lidar_odometry_without_loop_closure() {
     }
     // The first pose stays where it was.
     assert!((corrected.poses[0].position - est.poses[0].position).norm() < 1e-6);
+}
+
+/// Regression: from the uncorrected path a true loop starts tens of its
+/// sigmas off, where the robust (DCS) admission gave it no weight and
+/// turned it away, and the search's similarity slides along straight roads,
+/// which plain least squares obeyed. Measured now on KITTI 00: A-LOAM 4.63
+/// -> 1.28 m, LiDAR GICP 9.25 -> 5.18 m (were 2.69 and 9.25 m).
+#[test]
+fn true_loops_far_off_the_uncorrected_path_are_kept() {
+    let Some(gt) = kitti("kitti_gt/00.txt") else {
+        return;
+    };
+    for (file, bound) in [
+        ("odometry/kitti_aloam/00.txt", 0.4),
+        ("odometry/kitti_cvo_lidar/lidar_gicp/00.txt", 0.7),
+    ] {
+        let Some(est) = kitti(file) else {
+            return;
+        };
+        let (before, after, kept) = ape_after(&est, &gt.positions());
+        assert!(
+            after < bound * before,
+            "{file}: APE {before:.2} -> {after:.2}, {kept} loops kept"
+        );
+    }
 }
 
 fn ape_after(est: &Trajectory, truth: &[Vector3<f64>]) -> (f64, f64, usize) {
@@ -60,7 +85,7 @@ fn ape_after(est: &Trajectory, truth: &[Vector3<f64>]) -> (f64, f64, usize) {
 
 /// Regression: loops on ground truth, whose misses are only a lane's
 /// offset, bent the path by 0.4-0.75 m, and MULLS's own loop-closed KITTI 05
-/// went 0.57 -> 1.04 m. Measured now: ground truth 00 and 05 0.00 and 0.09 m
+/// went 0.57 -> 1.04 m. Measured now: ground truth 00 and 05 0.00 and 0.00 m
 /// (bound: a ten-thousandth of the path's length, 0.37 and 0.22 m),
 /// loop-closed MULLS 00 and 05 unchanged (bound 1.05x).
 #[test]
