@@ -445,7 +445,10 @@ fn translation_block(
     m: &nalgebra::DMatrix<f64>,
     n: usize,
 ) -> std::result::Result<(f64, Option<Slide>), String> {
-    let eig = nalgebra::SymmetricEigen::new(m.view((0, 0), (n, n)).into_owned());
+    // Bounded iterations: entries near f64's range must give an error, not
+    // a decomposition that never converges.
+    let eig = nalgebra::SymmetricEigen::try_new(m.view((0, 0), (n, n)).into_owned(), 1e-15, 1000)
+        .ok_or("translation information has no eigen-decomposition")?;
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
     let across = eig.eigenvalues[order[0]];
@@ -777,6 +780,21 @@ mod tests {
         // A bad line's number is in the message.
         let message = error_of(&edge(&format!("1 0 zero 0 0 0 1 {info}")));
         assert!(message.starts_with("g2o:3:"), "{message}");
+    }
+
+    /// Information entries near f64's range are an error, not a hang.
+    #[test]
+    fn huge_information_is_an_error_or_a_graph() {
+        let text = "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n\
+                    EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1e300 1e300 0 0 0 0 1e-300 0 0 0 0 1e300 \
+                    0 0 0 4 0 0 4 0 4\n";
+        match from_g2o(text) {
+            Ok(g) => {
+                let s = g.edges[0].sigmas;
+                assert!(s.translation.is_finite() && s.translation > 0.0, "{s:?}");
+            }
+            Err(e) => assert!(e.to_string().contains("information"), "{e}"),
+        }
     }
 
     #[test]
