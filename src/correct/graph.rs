@@ -231,12 +231,9 @@ fn loop_edges(
         .collect();
     let length = (arc[l.query_range[1]] - arc[l.query_range[0]]).max(f64::EPSILON);
     let sigmas = config.loop_noise.sigmas(l.rmse, length, picks);
-    let n = arc.len();
     let slide = |i: usize| -> Option<Slide> {
         // The direction of travel at keyframe `i`, in its own frame.
-        let k = keyframes[i];
-        let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
-        let world = positions[b] - positions[a];
+        let world = travel(positions, keyframes[i]);
         (world.norm() > 0.0).then(|| Slide {
             direction: poses[i].rotation.transpose() * world.normalize(),
             sigma: config.loop_noise.slide * length * (picks as f64).sqrt(),
@@ -275,6 +272,13 @@ fn loop_edges(
         .collect()
 }
 
+/// The step across pose `i` (from the pose before it to the one after):
+/// the direction of travel there, zero where the path stands still.
+fn travel(positions: &[Vector3<f64>], i: usize) -> Vector3<f64> {
+    let n = positions.len();
+    positions[(i + 1).min(n - 1)] - positions[i.saturating_sub(1)]
+}
+
 /// Cumulative arc length at each pose.
 pub fn arc_length(positions: &[Vector3<f64>]) -> Vec<f64> {
     let mut s = Vec::with_capacity(positions.len());
@@ -308,8 +312,7 @@ pub fn orientations(path: &Trajectory) -> Vec<Matrix3<f64>> {
     let up = Plane::fit(&positions).world_R_plane.column(2).into_owned();
     let mut out: Vec<Option<Matrix3<f64>>> = vec![None; n];
     for (i, slot) in out.iter_mut().enumerate() {
-        let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
-        let forward = positions[b] - positions[a];
+        let forward = travel(&positions, i);
         let forward = forward - up * up.dot(&forward);
         if forward.norm() > 0.0 {
             let x = forward.normalize();

@@ -241,8 +241,7 @@ fn admit(
         .filter(|&id| has_edges(id) && !active[id])
         .collect();
     let mut accepted_since = vec![0usize; loops.len()];
-    // `retry`: the loops turned away before are tried again in any case.
-    let mut accepted = usize::from(retry && warm);
+    let mut accepted = 0;
     let mut try_one =
         |id: usize, active: &mut Vec<bool>, solution: &mut Vec<Similarity3>| -> Result<bool> {
             let mut trial = active.clone();
@@ -266,7 +265,8 @@ fn admit(
         }
     }
     for &id in &rejected {
-        if accepted > accepted_since[id] {
+        // With `retry`, the loops turned away before are tried in any case.
+        if (retry && id < old) || accepted > accepted_since[id] {
             try_one(id, &mut active, &mut solution)?;
         }
     }
@@ -342,16 +342,11 @@ fn drift_scale(graph: &PoseGraph, active: &[bool]) -> (f64, Vec<bool>) {
         let n = edges.len().max(1) as f64;
         let mut m = Misses::default();
         for e in &edges {
-            let r = miss(&graph.poses, e);
+            let (r, angle) = miss(&graph.poses, e);
             let (across, a) = match e.sigmas.slide {
                 Some(slide) => (r - slide.direction * slide.direction.dot(&r), 2.0),
                 None => (r, 3.0),
             };
-            let predicted = graph.poses[e.from].compose(&e.from_T_to);
-            let angle = crate::geometry::similarity::angle_between(
-                &predicted.rotation,
-                &graph.poses[e.to].rotation,
-            );
             m.translation += across.norm_squared() / n;
             m.axes += a / n;
             m.rotation += angle * angle / n;
@@ -422,12 +417,16 @@ impl Misses {
     }
 }
 
-/// The translation miss of loop edge `e` at `solution`, in the frame and
-/// units of its `to` node (the frame of its residual and its slide).
-fn miss(solution: &[Similarity3], e: &graph::Edge) -> nalgebra::Vector3<f64> {
+/// The misses of loop edge `e` at `solution`: translation, in the frame
+/// and units of its `to` node (the frame of its residual and its slide),
+/// and rotation angle.
+fn miss(solution: &[Similarity3], e: &graph::Edge) -> (nalgebra::Vector3<f64>, f64) {
     let predicted = solution[e.from].compose(&e.from_T_to);
     let actual = &solution[e.to];
-    actual.rotation.transpose() * (predicted.translation - actual.translation) / actual.scale
+    (
+        actual.rotation.transpose() * (predicted.translation - actual.translation) / actual.scale,
+        crate::geometry::similarity::angle_between(&predicted.rotation, &actual.rotation),
+    )
 }
 
 /// Median over the edges of loop `id` of the larger of the translation and
@@ -438,12 +437,9 @@ fn residual(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> f64 {
         .loop_edges(id)
         .map(|e| {
             let share = (graph.loop_edges(id).count() as f64).sqrt();
-            let predicted = solution[e.from].compose(&e.from_T_to);
-            let actual = &solution[e.to];
-            let dt = e.sigmas.translation_misses(&miss(solution, e)) * share;
-            let dr =
-                crate::geometry::similarity::angle_between(&predicted.rotation, &actual.rotation)
-                    / (e.sigmas.rotation / share);
+            let (t, angle) = miss(solution, e);
+            let dt = e.sigmas.translation_misses(&t) * share;
+            let dr = angle / (e.sigmas.rotation / share);
             dt.max(dr)
         })
         .collect();
