@@ -1,7 +1,8 @@
 //! Drift-correction speed: `correct` on KITTI 00's drifting MULLS estimate
 //! end to end (loop search included) and the graph solve alone, and the
 //! online detector's re-optimisation after one new loop on a 10 000-pose
-//! drive whose earlier loops were kept before (`correct_again`). Real data
+//! drive whose earlier loops were kept before (`correct_again`), each also
+//! with 2000 even nodes (the graph's former size) for comparison. Real data
 //! from `TURNPRINT_DATA` (default `../shared/data`); those benches are
 //! skipped with a message when it is absent.
 
@@ -41,9 +42,16 @@ fn bench_batch(c: &mut Criterion) {
         b.iter(|| correct(black_box(&est), &config).unwrap())
     });
     let loops = loops_of(&est, &config);
-    c.bench_function("correct MULLS 00, graph only (10 loops)", |b| {
-        b.iter(|| correct_with_loops(black_box(&est), &loops, &config).unwrap())
-    });
+    for nodes in [config.max_nodes, 2000] {
+        let config = CorrectConfig {
+            max_nodes: nodes,
+            ..config.clone()
+        };
+        c.bench_function(
+            &format!("correct MULLS 00, graph only (10 loops, {nodes} even nodes)"),
+            |b| b.iter(|| correct_with_loops(black_box(&est), &loops, &config).unwrap()),
+        );
+    }
 }
 
 /// A 10 000-pose synthetic city drive with a heading drift of 0.1° per
@@ -79,16 +87,22 @@ fn bench_online(c: &mut Criterion) {
         eprintln!("skipped: the drive has no loop");
         return;
     }
-    // The state before the newest loop arrived.
-    let before = correct_with_loops(&path, &loops[..loops.len() - 1], &config).unwrap();
-    let kept: Vec<bool> = before.loops.iter().map(|l| l.kept).collect();
-    let name = format!(
-        "online re-optimisation after one new loop (10 000 poses, {} loops)",
-        loops.len()
-    );
-    c.bench_function(&name, |b| {
-        b.iter(|| correct_again(black_box(&path), &loops, &kept, &config).unwrap())
-    });
+    for nodes in [config.max_nodes, 2000] {
+        let config = CorrectConfig {
+            max_nodes: nodes,
+            ..config.clone()
+        };
+        // The state before the newest loop arrived.
+        let before = correct_with_loops(&path, &loops[..loops.len() - 1], &config).unwrap();
+        let kept: Vec<bool> = before.loops.iter().map(|l| l.kept).collect();
+        let name = format!(
+            "online re-optimisation after one new loop (10 000 poses, {} loops, {nodes} even nodes)",
+            loops.len()
+        );
+        c.bench_function(&name, |b| {
+            b.iter(|| correct_again(black_box(&path), &loops, &kept, &config).unwrap())
+        });
+    }
 }
 
 criterion_group! {

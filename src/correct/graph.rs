@@ -154,11 +154,7 @@ impl PoseGraph {
             ));
         }
         let world_R_body = orientations(path);
-        let stride = n.div_ceil(config.max_nodes.max(2));
-        let mut keyframes: Vec<usize> = (0..n).step_by(stride.max(1)).collect();
-        if *keyframes.last().unwrap_or(&0) != n - 1 {
-            keyframes.push(n - 1);
-        }
+        let keyframes = keyframes(n, loops, config);
         let poses: Vec<Similarity3> = keyframes
             .iter()
             .map(|&k| Similarity3 {
@@ -200,6 +196,26 @@ impl PoseGraph {
     pub fn loop_edges(&self, id: usize) -> impl Iterator<Item = &Edge> {
         self.edges.iter().filter(move |e| e.loop_id == Some(id))
     }
+}
+
+/// Pose indices of the nodes: `max_nodes` spread evenly over the path, the
+/// first and last pose, and `edges_per_loop` spread over each range of each
+/// loop, so that a loop shorter than the even spacing still gets its edges.
+fn keyframes(n: usize, loops: &[LoopClosure], config: &CorrectConfig) -> Vec<usize> {
+    let stride = n.div_ceil(config.max_nodes.max(2)).max(1);
+    let mut keyframes: Vec<usize> = (0..n).step_by(stride).collect();
+    keyframes.push(n - 1);
+    let picks = config.edges_per_loop.max(1);
+    for l in loops {
+        for r in [l.query_range, l.match_range] {
+            let (a, b) = (r[0].min(n - 1), r[1].min(n - 1));
+            keyframes
+                .extend((0..picks).map(|q| a + (q * (b.saturating_sub(a))) / (picks - 1).max(1)));
+        }
+    }
+    keyframes.sort_unstable();
+    keyframes.dedup();
+    keyframes
 }
 
 /// Edges of one loop: up to `edges_per_loop` query keyframes spread over the

@@ -12,6 +12,9 @@
 //! truth under synthetic drift (random walks and systematic biases, random
 //! similarities, both directions) instead; FILTER then keeps the sequences
 //! whose name contains it. `VERBOSE=1` lists every loop with its true offset.
+//! `ORACLE=1` corrects with the loops the ground truth shows instead of the
+//! search's (what the graph makes of right loops); `NODES=n` and `TOP=k`
+//! set the graph's even keyframes and the loops taken from the search.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -134,7 +137,7 @@ fn streamed(est: &Trajectory) -> turnprint::Result<turnprint::correct::Corrected
     use turnprint::online::correction::LoopInput;
     use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
     let mut d = Detector::new(OnlineConfig::default(), Overflow::Block)
-        .with_correction(CorrectConfig::default(), LoopInput::Candidates);
+        .with_correction(config(), LoopInput::Candidates);
     let mut solves = Vec::new();
     for p in &est.poses {
         d.push(&PoseInput {
@@ -222,7 +225,12 @@ fn synthetic(dir: &Path) {
                     source: format!("{seq} seed {seed}"),
                     poses: est.iter().map(|p| turnprint::Pose::at(*p)).collect(),
                 };
-                let Ok(c) = correct(&path, &CorrectConfig::default()) else {
+                let result = if std::env::var("ORACLE").is_ok() {
+                    oracle(&path, &t)
+                } else {
+                    correct(&path, &config())
+                };
+                let Ok(c) = result else {
                     continue;
                 };
                 let after: Vec<_> = c.poses.iter().map(|p| p.position).collect();
@@ -273,6 +281,65 @@ fn print_loops(c: &turnprint::correct::Corrected, truth: &[Vector3<f64>]) {
     }
 }
 
+/// `ORACLE=1`: the loops the truth shows (every revisit within 3 m, cut
+/// into pieces of about 100 m), to measure what the graph makes of right
+/// loops, apart from the search.
+fn oracle(
+    est: &Trajectory,
+    truth: &[Vector3<f64>],
+) -> turnprint::Result<turnprint::correct::Corrected> {
+    use turnprint::correct::{correct_with_loops, LoopClosure};
+    use turnprint_eval::revisits;
+    let arc = revisits::arc_lengths(truth);
+    let gap = arc.partition_point(|a| *a < 100.0).max(1);
+    let visits = revisits::revisits(truth, 3.0, gap);
+    let mut loops = Vec::new();
+    let mut start: Option<usize> = None;
+    for i in 0..=visits.len() {
+        let open = i < visits.len() && visits[i].is_some();
+        if let Some(s) = start {
+            if !open || arc[i] - arc[s] > 100.0 {
+                let q = [s, i - 1];
+                let js: Vec<usize> = (s..i).filter_map(|k| visits[k]).collect();
+                let m = [*js.iter().min().unwrap(), *js.iter().max().unwrap()];
+                // A run whose nearest earlier poses jump between passes
+                // is no one loop.
+                let (lq, lm) = (arc[q[1]] - arc[q[0]], arc[m[1]] - arc[m[0]]);
+                if lq > 20.0 && m[1] > m[0] && lm < 2.0 * lq {
+                    let reversed = js.first() > js.last();
+                    if let Ok(l) = LoopClosure::new(est, q, m, None, 1.0, reversed) {
+                        loops.push(l);
+                    }
+                }
+                start = None;
+            }
+        }
+        if open && start.is_none() {
+            start = Some(i);
+        }
+    }
+    eprintln!("  oracle: {} loops", loops.len());
+    correct_with_loops(est, &loops, &config())
+}
+
+/// Default settings, with `NODES=` (keyframes at most) and `TOP=` (loops
+/// from the search) to measure their effect.
+fn config() -> CorrectConfig {
+    let mut c = CorrectConfig::default();
+    let var = |name: &str| {
+        std::env::var(name)
+            .ok()
+            .and_then(|v| v.parse::<usize>().ok())
+    };
+    if let Some(n) = var("NODES") {
+        c.max_nodes = n;
+    }
+    if let Some(k) = var("TOP") {
+        c.loops.top_k = k;
+    }
+    c
+}
+
 fn main() {
     let dir = data_dir();
     if std::env::var("SYNTH").is_ok() {
@@ -311,10 +378,12 @@ fn main() {
         };
         let truth: Vec<Vector3<f64>> = pairs.iter().map(|&j| gt.poses[j].position).collect();
         let started = Instant::now();
-        let result = if online {
+        let result = if std::env::var("ORACLE").is_ok() {
+            oracle(&est, &truth)
+        } else if online {
             streamed(&est)
         } else {
-            correct(&est, &CorrectConfig::default())
+            correct(&est, &config())
         };
         let corrected = match result {
             Ok(c) => c,
