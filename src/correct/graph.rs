@@ -209,13 +209,18 @@ fn keyframes(n: usize, loops: &[LoopClosure], config: &CorrectConfig) -> Vec<usi
     for l in loops {
         for r in [l.query_range, l.match_range] {
             let (a, b) = (r[0].min(n - 1), r[1].min(n - 1));
-            keyframes
-                .extend((0..picks).map(|q| a + (q * (b.saturating_sub(a))) / (picks - 1).max(1)));
+            keyframes.extend(spread(b.saturating_sub(a) + 1, picks).map(|k| a + k));
         }
     }
     keyframes.sort_unstable();
     keyframes.dedup();
     keyframes
+}
+
+/// `picks` indices into `0..len` spread evenly, the first and the last
+/// among them.
+fn spread(len: usize, picks: usize) -> impl Iterator<Item = usize> {
+    (0..picks).map(move |q| (q * len.saturating_sub(1)) / (picks.saturating_sub(1)).max(1))
 }
 
 /// Edges of one loop: up to `edges_per_loop` query keyframes spread over the
@@ -242,9 +247,7 @@ fn loop_edges(
     }
     let match_T_query = l.query_T_match.inverse();
     let picks = config.edges_per_loop.clamp(1, query.len());
-    let chosen: Vec<usize> = (0..picks)
-        .map(|q| query[(q * (query.len() - 1)) / (picks - 1).max(1)])
-        .collect();
+    let chosen: Vec<usize> = spread(query.len(), picks).map(|k| query[k]).collect();
     let length = (arc[l.query_range[1]] - arc[l.query_range[0]]).max(f64::EPSILON);
     let sigmas = config.loop_noise.sigmas(l.rmse, length, picks);
     let slide = |i: usize| -> Option<Slide> {
