@@ -105,6 +105,32 @@ pub fn polish(
     b_range: [usize; 2],
     a_T_b: &Similarity3,
 ) -> Similarity3 {
+    refine(a, window, b, b_range, a_T_b, false)
+}
+
+/// [`polish`] with the scale held: the rigid motion `a_T_b` (scale 1)
+/// refined, for paths in one metric frame (a drift-correction loop of a
+/// path whose scale does not drift).
+#[allow(non_snake_case)]
+pub fn polish_rigid(
+    a: &RawPath,
+    window: [f64; 2],
+    b: &[Vector3<f64>],
+    b_range: [usize; 2],
+    a_T_b: &Similarity3,
+) -> Similarity3 {
+    refine(a, window, b, b_range, a_T_b, true)
+}
+
+#[allow(non_snake_case)]
+fn refine(
+    a: &RawPath,
+    window: [f64; 2],
+    b: &[Vector3<f64>],
+    b_range: [usize; 2],
+    a_T_b: &Similarity3,
+    rigid: bool,
+) -> Similarity3 {
     let (b0, b1) = (b_range[0].min(b_range[1]), b_range[0].max(b_range[1]));
     if b1 >= b.len() || a.points.len() < 2 {
         return *a_T_b;
@@ -114,7 +140,7 @@ pub fn polish(
     let [lo, hi] = window;
     let mut sim = *a_T_b;
     for _ in 0..ITERATIONS {
-        let Some((step, moved)) = gauss_newton_step(a, &sample, &sim, lo, hi) else {
+        let Some((step, moved)) = gauss_newton_step(a, &sample, &sim, lo, hi, rigid) else {
             break;
         };
         sim = step.compose(&sim);
@@ -162,13 +188,15 @@ fn median_distance(
 }
 
 /// One damped Gauss-Newton step, as the similarity to apply after `sim`,
-/// and how far it moves a point at most, relative to the points' spread.
+/// and how far it moves a point at most, relative to the points' spread;
+/// with `rigid`, the scale stays.
 fn gauss_newton_step(
     a: &RawPath,
     sample: &[Vector3<f64>],
     sim: &Similarity3,
     lo: f64,
     hi: f64,
+    rigid: bool,
 ) -> Option<(Similarity3, f64)> {
     let mapped: Vec<Vector3<f64>> = sample.iter().map(|p| sim.apply(p)).collect();
     let pairs: Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> = mapped
@@ -206,7 +234,9 @@ fn gauss_newton_step(
         let mut j = SMatrix::<f64, 3, 7>::zeros();
         j.fixed_view_mut::<3, 3>(0, 0)
             .copy_from(&(projector * -d.cross_matrix()));
-        j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(projector * d));
+        if !rigid {
+            j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(projector * d));
+        }
         j.fixed_view_mut::<3, 3>(0, 4)
             .copy_from(&(projector * spread));
         let r = projector * (u - q);
@@ -262,34 +292,52 @@ mod tests {
         p
     }
 
-    /// The single-corner case the point-to-point refit left off: a start
-    /// 3 % off in scale and 2° off in rotation comes back to the truth.
-    #[test]
+    /// The corner case: `polish` (`rigid` or not) of B, A's corner and 80
+    /// units of each leg in B's own frame (A = `truth` B), from a start
+    /// `off_scale` off in scale, 2° off in rotation and half a unit in
+    /// translation; the result and its largest error on B's points.
     #[allow(non_snake_case)]
-    fn a_single_corner_fixes_the_scale() {
+    fn corner_case(truth_scale: f64, off_scale: f64, rigid: bool) -> (Similarity3, f64) {
         let a = corner();
         let truth = Similarity3 {
-            scale: 2.0,
+            scale: truth_scale,
             rotation: *Rotation3::from_euler_angles(0.4, 0.2, -1.0).matrix(),
             translation: Vector3::new(3.0, -7.0, 11.0),
         };
-        // B: A's corner and 80 units of each leg, in B's own frame.
         let inv = truth.inverse();
         let b: Vec<Vector3<f64>> = a[40..390].iter().map(|p| inv.apply(p)).collect();
         let off = Similarity3 {
-            scale: 1.03,
+            scale: off_scale,
             rotation: *Rotation3::from_euler_angles(0.0, 0.0, 0.035).matrix(),
             translation: Vector3::new(0.5, -0.3, 0.0),
         }
         .compose(&truth);
         let raw = RawPath::new(&a);
         let window = search_window([40, 389]);
-        let a_T_b = polish(&raw, window, &b, [0, b.len() - 1], &off);
-        assert!((a_T_b.scale / truth.scale - 1.0).abs() < 1e-4, "{a_T_b:?}");
+        let run = if rigid { polish_rigid } else { polish };
+        let a_T_b = run(&raw, window, &b, [0, b.len() - 1], &off);
         let err = b
             .iter()
             .map(|p| (a_T_b.apply(p) - truth.apply(p)).norm())
             .fold(0.0, f64::max);
+        (a_T_b, err)
+    }
+
+    /// The single-corner case the point-to-point refit left off: a start
+    /// 3 % off in scale and 2° off in rotation comes back to the truth.
+    #[test]
+    fn a_single_corner_fixes_the_scale() {
+        let (fit, err) = corner_case(2.0, 1.03, false);
+        assert!((fit.scale / 2.0 - 1.0).abs() < 1e-4, "{fit:?}");
+        assert!(err < 0.05, "largest error {err}");
+    }
+
+    /// The rigid polish from a start 2° and half a unit off comes back to
+    /// a rigid truth and leaves the scale at exactly 1.
+    #[test]
+    fn the_rigid_polish_holds_the_scale() {
+        let (fit, err) = corner_case(1.0, 1.0, true);
+        assert_eq!(fit.scale, 1.0);
         assert!(err < 0.05, "largest error {err}");
     }
 

@@ -14,14 +14,15 @@
 //! [`from_g2o`] reads those and the planar `VERTEX_SE2 id x y θ` /
 //! `EDGE_SE2 from to x y θ` with its 3x3 upper triangle (x, y, θ), lifted to
 //! 3D with z = 0 and the rotation about z. A [`PoseGraph`]'s sigmas are
-//! isotropic per block but for a loop edge's slide, so the information must
-//! be block diagonal, with equal rotation entries and a translation block
-//! equal on every axis or on all but one (a [`super::graph::Slide`] along
-//! it); anything else is an error, as is any line that is not one of these records. [`cost`] is the
-//! objective the solver minimises in the convention g2o and GTSAM report.
+//! isotropic per block but for a loop edge's slide and roll, so the
+//! information must be block diagonal, with a translation block and a
+//! rotation block each equal on every axis or on all but one (a
+//! [`super::graph::Loose`] axis); anything else is an error, as is any line
+//! that is not one of these records. [`cost`] is the objective the solver
+//! minimises in the convention g2o and GTSAM report.
 
 use super::config::Group;
-use super::graph::{Edge, PoseGraph, Sigmas, Slide};
+use super::graph::{Edge, Loose, PoseGraph, Sigmas};
 use crate::geometry::Similarity3;
 use crate::{Error, Result};
 use apex_solver::manifold::se3::SE3;
@@ -398,82 +399,81 @@ impl Kind {
         }
         let largest = m.diagonal().iter().cloned().fold(0.0, f64::max);
         let tolerance = INFO_TOLERANCE * largest;
-        // Only the translation block may couple its own axes (a slide).
+        // Only the translation block and the rotation block may couple their
+        // own axes (a slide, a roll).
         let nt = if self == Kind::Se2 { 2 } else { 3 };
+        let nr = if self == Kind::Se2 { 1 } else { 3 };
+        let part = |i: usize| {
+            if i < nt {
+                0
+            } else if i < nt + nr {
+                1
+            } else {
+                2
+            }
+        };
         let coupled = (0..d)
             .flat_map(|i| (0..d).map(move |j| (i, j)))
-            .filter(|&(i, j)| i != j && !(i < nt && j < nt))
+            .filter(|&(i, j)| i != j && (part(i) != part(j) || part(i) == 2))
             .map(|(i, j)| m[(i, j)].abs())
             .fold(0.0, f64::max);
         if coupled > tolerance {
             return Err(format!(
-                "information has off-diagonal entries (up to {coupled}) outside the \
-                 translation block: the graph's sigmas are one per block"
+                "information has off-diagonal entries (up to {coupled}) between blocks: \
+                 the graph's sigmas are one per block"
             ));
         }
-        let diag: Vec<f64> = m.diagonal().iter().copied().collect();
-        let (rotation, log_scale) = match self {
-            Kind::Se2 => (&diag[2..3], None),
-            Kind::Se3 => (&diag[3..6], None),
-            Kind::Sim3 => (&diag[3..6], Some(diag[6])),
-        };
-        let first = rotation[0];
-        if rotation
-            .iter()
-            .any(|v| (v - first).abs() > INFO_TOLERANCE * first)
-        {
-            return Err(format!(
-                "rotation information {rotation:?} differs between axes: the graph's sigmas \
-                 are one per block"
-            ));
-        }
-        let (translation, slide) = translation_block(&m, nt)?;
+        let (translation, slide) = loose_block(&m, 0, nt, "translation")?;
+        let (rotation, roll) = loose_block(&m, nt, nr, "rotation")?;
+        let log_scale = (self == Kind::Sim3).then(|| m[(6, 6)]);
         Ok(Sigmas {
             translation,
-            rotation: 1.0 / first.sqrt(),
+            rotation,
             log_scale: log_scale.map_or(1.0, |v| 1.0 / v.sqrt()),
             slide,
+            roll,
         })
     }
 }
 
-/// The translation sigma and slide of the first `n` rows of an information
-/// matrix: equal information on every axis (no slide), or equal on all but
-/// one axis, which has less (a slide along it). A planar graph's third axis
-/// takes the in-plane information across (see [`from_g2o`]).
-fn translation_block(
+/// The sigma and loose axis of the `n` rows of an information matrix from
+/// row `at` on (one block, `what`): equal information on every axis (no
+/// loose axis), or equal on all but one axis, which has less. A planar
+/// graph's third translation axis takes the in-plane information across
+/// (see [`from_g2o`]).
+fn loose_block(
     m: &nalgebra::DMatrix<f64>,
+    at: usize,
     n: usize,
-) -> std::result::Result<(f64, Option<Slide>), String> {
+    what: &str,
+) -> std::result::Result<(f64, Option<Loose>), String> {
     // Bounded iterations: entries near f64's range must give an error, not
     // a decomposition that never converges.
-    let eig = nalgebra::SymmetricEigen::try_new(m.view((0, 0), (n, n)).into_owned(), 1e-15, 1000)
-        .ok_or("translation information has no eigen-decomposition")?;
+    let eig = nalgebra::SymmetricEigen::try_new(m.view((at, at), (n, n)).into_owned(), 1e-15, 1000)
+        .ok_or(format!("{what} information has no eigen-decomposition"))?;
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-    let across = eig.eigenvalues[order[0]];
+    let most = eig.eigenvalues[order[0]];
     let least = eig.eigenvalues[order[n - 1]];
-    let equal = |v: f64| (v - across).abs() <= 1e3 * INFO_TOLERANCE * across;
+    let equal = |v: f64| (v - most).abs() <= 1e3 * INFO_TOLERANCE * most;
     if least <= 0.0 {
-        return Err("translation information is not positive definite".into());
+        return Err(format!("{what} information is not positive definite"));
     }
     if equal(least) {
-        return Ok((1.0 / across.sqrt(), None));
+        return Ok((1.0 / most.sqrt(), None));
     }
     if !order[..n - 1].iter().all(|&k| equal(eig.eigenvalues[k])) {
         return Err(format!(
-            "translation information has eigenvalues {:?}: the graph's translation sigmas \
-             are one across the road and one along it",
-            &eig.eigenvalues.as_slice()[..n]
+            "{what} information has eigenvalues {:?}: the graph's {what} sigmas \
+             are one on every axis but one, and one on that",
+            eig.eigenvalues.as_slice()
         ));
     }
+    let v = eig.eigenvectors.column(order[n - 1]);
     Ok((
-        1.0 / across.sqrt(),
-        Some(Slide {
-            direction: {
-                let v = eig.eigenvectors.column(order[n - 1]);
-                Vector3::new(v[0], v[1], if n == 3 { v[2] } else { 0.0 })
-            },
+        1.0 / most.sqrt(),
+        Some(Loose {
+            axis: Vector3::new(v[0], v[1], if n == 3 { v[2] } else { 0.0 }),
             sigma: 1.0 / least.sqrt(),
         }),
     ))
@@ -539,6 +539,7 @@ mod tests {
             rotation: 0.01,
             log_scale: if group == Group::Sim3 { 0.2 } else { 1.0 },
             slide: None,
+            roll: None,
         };
         let mut edges: Vec<Edge> = (0..3)
             .map(|k| Edge {
@@ -556,9 +557,13 @@ mod tests {
             sigmas: Sigmas {
                 translation: 0.5,
                 rotation: 0.1,
-                slide: Some(Slide {
-                    direction: Vector3::new(0.6, 0.8, 0.0),
+                slide: Some(Loose {
+                    axis: Vector3::new(0.6, 0.8, 0.0),
                     sigma: 20.0,
+                }),
+                roll: Some(Loose {
+                    axis: Vector3::new(0.0, 0.6, 0.8),
+                    sigma: 0.7,
                 }),
                 ..sigmas
             },
@@ -597,14 +602,19 @@ mod tests {
                 if group == Group::Sim3 {
                     assert!(rel(a.sigmas.log_scale, b.sigmas.log_scale));
                 }
-                match (a.sigmas.slide, b.sigmas.slide) {
-                    (None, None) => {}
-                    (Some(x), Some(y)) => {
-                        // An eigenvector's sign is free.
-                        assert!((x.direction.dot(&y.direction).abs() - 1.0).abs() < 1e-9);
-                        assert!((x.sigma - y.sigma).abs() <= 1e-9 * x.sigma);
+                for (x, y) in [
+                    (a.sigmas.slide, b.sigmas.slide),
+                    (a.sigmas.roll, b.sigmas.roll),
+                ] {
+                    match (x, y) {
+                        (None, None) => {}
+                        (Some(x), Some(y)) => {
+                            // An eigenvector's sign is free.
+                            assert!((x.axis.dot(&y.axis).abs() - 1.0).abs() < 1e-9);
+                            assert!((x.sigma - y.sigma).abs() <= 1e-9 * x.sigma);
+                        }
+                        other => panic!("loose axis lost: {other:?}"),
                     }
-                    other => panic!("slide lost: {other:?}"),
                 }
                 // The format has no loop identity.
                 assert_eq!(b.loop_id, None);
@@ -658,10 +668,35 @@ mod tests {
         };
         let slide = e.sigmas.slide.unwrap();
         let across = Vector3::new(-0.8, 0.6, 0.0);
-        let (along_cost, across_cost) = (moved_by(slide.direction), moved_by(across));
+        let (along_cost, across_cost) = (moved_by(slide.axis), moved_by(across));
         // 0.5 (1 / 20)² along, 0.5 (1 / 0.5)² across.
         assert!((along_cost - 0.00125).abs() < 1e-9, "{along_cost}");
         assert!((across_cost - 2.0).abs() < 1e-9, "{across_cost}");
+    }
+
+    /// A loop edge's rotation residual about its roll's axis counts in the
+    /// roll's sigma, about the other axes in the rotation sigma.
+    #[test]
+    fn a_roll_frees_its_axis_only() {
+        let mut g = graph(Group::Se3);
+        g.edges[3].from_T_to = g.poses[3].inverse().compose(&g.poses[0]);
+        let e = &g.edges[3];
+        let start = cost_of(&g, &g.poses, |x| x.loop_id.is_some());
+        let turned_by = |axis: Vector3<f64>, angle: f64| {
+            let mut poses = g.poses.clone();
+            let r = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle);
+            poses[0] = poses[0].compose(&Similarity3 {
+                scale: 1.0,
+                rotation: *r.matrix(),
+                translation: Vector3::zeros(),
+            });
+            cost_of(&g, &poses, |x| x.loop_id.is_some()) - start
+        };
+        let roll = e.sigmas.roll.unwrap();
+        let (about, across) = (turned_by(roll.axis, 0.07), turned_by(Vector3::x(), 0.07));
+        // 0.5 (0.07 / 0.7)² about it, 0.5 (0.07 / 0.1)² across.
+        assert!((about - 0.005).abs() < 1e-9, "{about}");
+        assert!((across - 0.245).abs() < 1e-9, "{across}");
     }
 
     #[test]
@@ -730,9 +765,9 @@ mod tests {
             (
                 edge(&format!(
                     "1 0 0 0 0 0 1 {}",
-                    info.replace("4 0 0 4 0 4", "4 0 0 4 0 1")
+                    info.replace("4 0 0 4 0 4", "4 0 0 2 0 1")
                 )),
-                "rotation information",
+                "rotation information has eigenvalues",
             ),
             (
                 edge(&format!("1 0 0 0 0 0 1 {}", info.replacen('1', "-1", 1))),

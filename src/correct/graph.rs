@@ -26,48 +26,74 @@ use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sigmas {
     /// Translation, each axis (each axis across the road where the edge
-    /// has a [`Slide`]).
+    /// has a slide).
     pub translation: f64,
-    /// Rotation, each axis (radians).
+    /// Rotation, each axis (radians; each axis but the roll's where the
+    /// edge has one).
     pub rotation: f64,
     /// Natural log of the scale (Sim(3) graphs only).
     pub log_scale: f64,
     /// A loop edge's freedom along the road; `None`: isotropic translation.
-    pub slide: Option<Slide>,
+    ///
+    /// Two passes over one road fit each other across it, but along it only
+    /// as far as the road bends: on a straight their fit can slide by tens
+    /// of metres with no misfit at all. A loop edge therefore measures where
+    /// its pose lies across the earlier pass, and along it only to within
+    /// the overlap's length; edges spread along a bend, whose directions
+    /// differ, then pin the loop along the road together where the shape
+    /// does.
+    pub slide: Option<Loose>,
+    /// A loop edge's freedom to turn about the road; `None`: isotropic
+    /// rotation.
+    ///
+    /// A fit of two passes fixes rotation about an axis only as far as the
+    /// points spread around that axis: about a straight road, whose points
+    /// lie on one line, not at all, and a rigid fit then takes whatever
+    /// roll its noise suggests (radians of it on a flat straight). The edge
+    /// measures rotation about the axis its points spread least around only
+    /// as well as that spread allows ([`roll_axis`]).
+    pub roll: Option<Loose>,
 }
 
-/// The direction in which a loop edge pins its node only loosely.
-///
-/// Two passes over one road fit each other across it, but along it only as
-/// far as the road bends: on a straight their fit can slide by tens of
-/// metres with no misfit at all. A loop edge therefore measures where its
-/// pose lies across the earlier pass, and along it only to within the
-/// overlap's length; edges spread along a bend, whose directions differ,
-/// then pin the loop along the road together where the shape does.
+/// An axis along which (translation) or about which (rotation) an edge
+/// pins its node more loosely than on the others.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Slide {
-    /// Unit direction of travel in the `to` node's frame (the frame of the
-    /// translation residual).
-    pub direction: Vector3<f64>,
-    /// Translation sigma along it.
+pub struct Loose {
+    /// Unit axis in the `to` node's frame (the frame of the residual).
+    pub axis: Vector3<f64>,
+    /// Sigma on it.
     pub sigma: f64,
+}
+
+/// The square root of the information of one block whose sigma is `sigma`
+/// on every axis but `loose`'s: `(I - a aᵀ) / σ + a aᵀ / σ_a`. The two
+/// projections are orthogonal, so its square is the information
+/// `(I - a aᵀ) / σ² + a aᵀ / σ_a²`.
+fn block(sigma: f64, loose: Option<Loose>) -> Matrix3<f64> {
+    let all = Matrix3::identity() / sigma;
+    match loose {
+        Some(l) => {
+            let aat = l.axis * l.axis.transpose();
+            all - aat / sigma + aat / l.sigma
+        }
+        None => all,
+    }
 }
 
 impl Sigmas {
     /// `W` with `Wᵀ W` the information of the edge's residual
-    /// `[t (3), ω (3), ln s (Sim(3) only)]`. With a slide `d`, the
-    /// translation block is `(I - d dᵀ) / σ + d dᵀ / σ_d`: the two
-    /// projections are orthogonal, so its square is the information
-    /// `(I - d dᵀ) / σ² + d dᵀ / σ_d²`.
+    /// `[t (3), ω (3), ln s (Sim(3) only)]`: the translation and rotation
+    /// blocks of [`block`], the scale's sigma.
     pub fn sqrt_information(&self, sim3: bool) -> DMatrix<f64> {
         let n = if sim3 { 7 } else { 6 };
         let mut w = DMatrix::zeros(n, n);
         let t = self.translation_sqrt_information();
+        let r = self.rotation_sqrt_information();
         for i in 0..3 {
             for j in 0..3 {
                 w[(i, j)] = t[(i, j)];
+                w[(3 + i, 3 + j)] = r[(i, j)];
             }
-            w[(3 + i, 3 + i)] = 1.0 / self.rotation;
         }
         if sim3 {
             w[(6, 6)] = 1.0 / self.log_scale;
@@ -77,20 +103,29 @@ impl Sigmas {
 
     /// The translation block of [`Sigmas::sqrt_information`].
     pub fn translation_sqrt_information(&self) -> Matrix3<f64> {
-        let across = Matrix3::identity() / self.translation;
-        match self.slide {
-            Some(s) => {
-                let ddt = s.direction * s.direction.transpose();
-                across - ddt / self.translation + ddt / s.sigma
-            }
-            None => across,
-        }
+        block(self.translation, self.slide)
+    }
+
+    /// The rotation block of [`Sigmas::sqrt_information`].
+    pub fn rotation_sqrt_information(&self) -> Matrix3<f64> {
+        block(self.rotation, self.roll)
+    }
+
+    /// Whether the information is the same on every axis of each block.
+    pub fn isotropic(&self) -> bool {
+        self.slide.is_none() && self.roll.is_none()
     }
 
     /// A translation residual (in the frame of the edge's `to` node) in
     /// its sigmas: the norm of the whitened residual.
     pub fn translation_misses(&self, r: &Vector3<f64>) -> f64 {
         (self.translation_sqrt_information() * r).norm()
+    }
+
+    /// A rotation residual (rotation vector in the frame of the edge's `to`
+    /// node) in its sigmas.
+    pub fn rotation_misses(&self, w: &Vector3<f64>) -> f64 {
+        (self.rotation_sqrt_information() * w).norm()
     }
 }
 
@@ -250,12 +285,23 @@ fn loop_edges(
     let chosen: Vec<usize> = spread(query.len(), picks).map(|k| query[k]).collect();
     let length = (arc[l.query_range[1]] - arc[l.query_range[0]]).max(f64::EPSILON);
     let sigmas = config.loop_noise.sigmas(l.rmse, length, picks);
-    let slide = |i: usize| -> Option<Slide> {
+    let slide = |i: usize| -> Option<Loose> {
         // The direction of travel at keyframe `i`, in its own frame.
         let world = travel(positions, keyframes[i]);
-        (world.norm() > 0.0).then(|| Slide {
-            direction: poses[i].rotation.transpose() * world.normalize(),
+        (world.norm() > 0.0).then(|| Loose {
+            axis: poses[i].rotation.transpose() * world.normalize(),
             sigma: config.loop_noise.slide * length * (picks as f64).sqrt(),
+        })
+    };
+    let lever = config
+        .rigid_loops
+        .then(|| roll_axis(&positions[l.query_range[0]..=l.query_range[1]]))
+        .flatten();
+    let roll = |i: usize| -> Option<Loose> {
+        let (axis, ratio) = lever?;
+        Some(Loose {
+            axis: poses[i].rotation.transpose() * axis,
+            sigma: config.loop_noise.roll(sigmas.rotation, ratio, picks),
         })
     };
     chosen
@@ -283,12 +329,38 @@ fn loop_edges(
                 from_T_to: j_T_i,
                 sigmas: Sigmas {
                     slide: slide(i),
+                    roll: roll(i),
                     ..sigmas
                 },
                 loop_id: Some(id),
             })
         })
         .collect()
+}
+
+/// The axis (world frame) about which `points` spread least, and how much
+/// less than about the axis they spread most around: `√(λ_max / λ_min)` of
+/// `H = tr(C) I - C`, `C` their covariance. `H` is the curvature of a rigid
+/// fit's misfit under a small rotation of the points about their centroid
+/// (`Σ |ω × p|² = ωᵀ H ω` per point), so a fit fixes rotation about each
+/// eigen-axis to the misfit over the root of its eigenvalue: the points' RMS
+/// lever about it. `None` for fewer than two distinct points.
+fn roll_axis(points: &[Vector3<f64>]) -> Option<(Vector3<f64>, f64)> {
+    let n = points.len() as f64;
+    let mean = points.iter().sum::<Vector3<f64>>() / n;
+    let c = points
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<Matrix3<f64>>()
+        / n;
+    let h = Matrix3::identity() * c.trace() - c;
+    let eig = nalgebra::SymmetricEigen::new(h);
+    let (most, least) = (eig.eigenvalues.max(), eig.eigenvalues.imin());
+    if most.is_nan() || most <= 0.0 {
+        return None;
+    }
+    let ratio = (most / eig.eigenvalues[least].max(0.0)).sqrt();
+    Some((eig.eigenvectors.column(least).into_owned(), ratio))
 }
 
 /// The step across pose `i` (from the pose before it to the one after):

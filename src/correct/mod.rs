@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! path -> loop search (pipeline::find_loops, as `loops`) -> LoopClosure
+//!      (-> a rigid motion each, with `rigid_loops`: LoopClosure::rigid)
 //!      -> PoseGraph (keyframes, odometry edges, loop edges free along the road)
 //!      -> choice (apex-solver, least squares, rise of the cost, best loop first)
 //!      -> drift measured from the chosen loops, and the loops it explains
@@ -112,6 +113,8 @@ pub fn correct_again(
     kept: &[bool],
     config: &CorrectConfig,
 ) -> Result<Corrected> {
+    let rigid = as_rigid(path, loops, config)?;
+    let loops = rigid.as_deref().unwrap_or(loops);
     // Choice: loops admitted under the odometry prior (an upper bound on
     // drift) and the tolerant loop floor.
     let prior = PoseGraph::build(path, loops, config)?;
@@ -186,6 +189,39 @@ pub fn correct_again(
         group: graph.group,
         graph,
     })
+}
+
+/// With [`CorrectConfig::rigid_loops`], the loops as rigid motions
+/// ([`LoopClosure::rigid`]) where the graph is SE(3); `None` otherwise (and
+/// where the path is not finite, which the graph turns away). A loop travelled the other way keeps the search's
+/// similarity: the two passes of a road driven both ways keep to their own
+/// lanes, and a rigid fit laying one onto the other would read the lanes'
+/// offset as drift (KITTI 08's ground truth, corrected from 0.00 to 0.54 m),
+/// where the similarity's fit of the shapes leaves it in the loop's misfit.
+fn as_rigid(
+    path: &Trajectory,
+    loops: &[LoopClosure],
+    config: &CorrectConfig,
+) -> Result<Option<Vec<LoopClosure>>> {
+    if !config.rigid_loops || loops.is_empty() || config.group.resolve(loops) != Group::Se3 {
+        return Ok(None);
+    }
+    let positions = path.positions();
+    if !positions.iter().all(|p| p.iter().all(|c| c.is_finite())) {
+        return Ok(None);
+    }
+    let raw = crate::align::RawPath::new(&positions);
+    loops
+        .iter()
+        .map(|l| {
+            if l.reversed {
+                Ok(l.clone())
+            } else {
+                l.rigid(path, &raw)
+            }
+        })
+        .collect::<Result<_>>()
+        .map(Some)
 }
 
 /// Loops admitted one at a time, best score first, each by the rise of the
@@ -322,12 +358,14 @@ const MIN_DRIFT_SCALE: f64 = 1e-4;
 ///
 /// Each loop's misses against the uncorrected path are modelled per axis as
 /// zero-mean: its translation miss across the road `d` (its edges' mean
-/// squared miss on the `a` axes a [`graph::Slide`] leaves) with variance
-/// `k² (V_t + V_l) / 3 + σ_t²`, and its rotation miss `ρ` (the mean squared
-/// angle, on 3 axes) with variance `k² V_r / 3 + σ_r²`, where the loop is
-/// right; `σ` are the loop's own sigmas, `V_t` and `V_r` the prior's
-/// translation and rotation variances of the odometry chain between its two
-/// poses and `V_l` the rotation's lever to the far pose. Where the loop is
+/// squared miss on the `a` axes a slide, [`graph::Sigmas::slide`], leaves)
+/// with variance `k² (V_t + V_l) / 3 + σ_t²`, and its rotation miss `ρ` on
+/// each axis with variance `k² V_r / 3 + σ_r²` (`σ_r` the roll's sigma about
+/// its axis, [`graph::Sigmas::roll`]), and in a Sim(3) graph its miss of
+/// ln(scale) with variance `k² V_s + σ_s²`, where the loop is right; `σ` are
+/// the loop's own sigmas, `V_t`, `V_r` and `V_s` the prior's translation,
+/// rotation and scale variances of the odometry chain between its two poses
+/// and `V_l` the rotation's lever to the far pose. Where the loop is
 /// wrong, its misses are anywhere the prior reaches (`k = 1`), at even odds.
 /// `k` maximises the mixture's likelihood `Σ max(ln p_right, ln p_wrong)` on
 /// a log grid of tenths of a decade, and a loop more likely wrong than right
@@ -336,23 +374,42 @@ const MIN_DRIFT_SCALE: f64 = 1e-4;
 /// turned away, however much drift the prior would allow. `k` is 1 when no
 /// loop is active.
 fn drift_scale(graph: &PoseGraph, active: &[bool]) -> (f64, Vec<bool>) {
+    let sim3 = graph.group == Group::Sim3;
     let mut samples: Vec<(usize, Misses)> = Vec::new();
     for (id, _) in active.iter().enumerate().filter(|(_, &a)| a) {
         let edges: Vec<&graph::Edge> = graph.loop_edges(id).collect();
         let n = edges.len().max(1) as f64;
-        let mut m = Misses::default();
+        let mut m = Misses {
+            sim3,
+            ..Misses::default()
+        };
         for e in &edges {
-            let (r, angle) = miss(&graph.poses, e);
+            let (r, w) = miss(&graph.poses, e);
             let (across, a) = match e.sigmas.slide {
-                Some(slide) => (r - slide.direction * slide.direction.dot(&r), 2.0),
+                Some(slide) => (r - slide.axis * slide.axis.dot(&r), 2.0),
                 None => (r, 3.0),
             };
             m.translation += across.norm_squared() / n;
             m.axes += a / n;
-            m.rotation += angle * angle / n;
             // The loop's own variance: its edges share one measurement.
             m.own_translation += e.sigmas.translation.powi(2) / (n * n);
+            let (turn, roll) = match e.sigmas.roll {
+                Some(roll) => (w - roll.axis * roll.axis.dot(&w), roll.axis.dot(&w)),
+                None => (w, 0.0),
+            };
+            m.rotation += turn.norm_squared() / n;
+            m.roll += roll * roll / n;
             m.own_rotation += e.sigmas.rotation.powi(2) / (n * n);
+            m.own_roll += e
+                .sigmas
+                .roll
+                .map_or(0.0, |r| r.sigma.powi(2) - e.sigmas.rotation.powi(2))
+                / (n * n);
+            if sim3 {
+                let predicted = graph.poses[e.from].scale * e.from_T_to.scale;
+                m.scale += (predicted / graph.poses[e.to].scale).ln().powi(2) / n;
+                m.own_scale += e.sigmas.log_scale.powi(2) / (n * n);
+            }
             let far = graph.poses[e.to].translation;
             let (a, b) = (e.from.min(e.to), e.from.max(e.to));
             for o in &graph.edges[a..b] {
@@ -360,6 +417,9 @@ fn drift_scale(graph: &PoseGraph, active: &[bool]) -> (f64, Vec<bool>) {
                 m.chain_translation += 3.0 * o.sigmas.translation.powi(2) / n;
                 m.chain_lever += 2.0 * o.sigmas.rotation.powi(2) * lever / n;
                 m.chain_rotation += 3.0 * o.sigmas.rotation.powi(2) / n;
+                if sim3 {
+                    m.chain_scale += o.sigmas.log_scale.powi(2) / n;
+                }
             }
         }
         samples.push((id, m));
@@ -393,16 +453,26 @@ struct Misses {
     translation: f64,
     /// Axes it is measured on.
     axes: f64,
-    /// Mean squared rotation miss (radians², 3 axes).
+    /// Mean squared rotation miss (radians²) off the roll's axis (3 axes,
+    /// 2 where the edges have a roll), and about it.
     rotation: f64,
-    /// The loop's own translation and rotation variances, per axis.
+    roll: f64,
+    /// The loop's own translation and rotation variances, per axis, and
+    /// what the roll's axis adds to the rotation's.
     own_translation: f64,
     own_rotation: f64,
+    own_roll: f64,
     /// The prior's chain variances (summed over 3 axes): translation, the
     /// rotation's lever, rotation.
     chain_translation: f64,
     chain_lever: f64,
     chain_rotation: f64,
+    /// In a Sim(3) graph: the squared miss of ln(scale), the loop's own
+    /// variance of it and the prior's over the chain.
+    sim3: bool,
+    scale: f64,
+    own_scale: f64,
+    chain_scale: f64,
 }
 
 impl Misses {
@@ -410,22 +480,37 @@ impl Misses {
     fn ln_p(&self, k: f64) -> f64 {
         let vt = k * k * (self.chain_translation + self.chain_lever) / 3.0 + self.own_translation;
         let vr = k * k * self.chain_rotation / 3.0 + self.own_rotation;
+        // Without a roll its axis is one of the others: the term below then
+        // adds the third axis's share at the same variance.
+        let vroll = vr + self.own_roll;
         -0.5 * self.axes * vt.ln()
             - self.translation / (2.0 * vt)
-            - 1.5 * vr.ln()
+            - vr.ln()
             - self.rotation / (2.0 * vr)
+            - 0.5 * vroll.ln()
+            - self.roll / (2.0 * vroll)
+            + if self.sim3 {
+                let vs = k * k * self.chain_scale + self.own_scale;
+                -0.5 * vs.ln() - self.scale / (2.0 * vs)
+            } else {
+                0.0
+            }
     }
 }
 
-/// The misses of loop edge `e` at `solution`: translation, in the frame
-/// and units of its `to` node (the frame of its residual and its slide),
-/// and rotation angle.
-fn miss(solution: &[Similarity3], e: &graph::Edge) -> (nalgebra::Vector3<f64>, f64) {
+/// The misses of loop edge `e` at `solution`, in the frame of its `to`
+/// node (the frame of its residual, its slide and its roll): translation,
+/// in that node's units, and rotation, as a rotation vector.
+fn miss(
+    solution: &[Similarity3],
+    e: &graph::Edge,
+) -> (nalgebra::Vector3<f64>, nalgebra::Vector3<f64>) {
     let predicted = solution[e.from].compose(&e.from_T_to);
     let actual = &solution[e.to];
     (
         actual.rotation.transpose() * (predicted.translation - actual.translation) / actual.scale,
-        crate::geometry::similarity::angle_between(&predicted.rotation, &actual.rotation),
+        Rotation3::from_matrix_unchecked(actual.rotation.transpose() * predicted.rotation)
+            .scaled_axis(),
     )
 }
 
@@ -437,9 +522,9 @@ fn residual(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> f64 {
         .loop_edges(id)
         .map(|e| {
             let share = (graph.loop_edges(id).count() as f64).sqrt();
-            let (t, angle) = miss(solution, e);
+            let (t, w) = miss(solution, e);
             let dt = e.sigmas.translation_misses(&t) * share;
-            let dr = angle / (e.sigmas.rotation / share);
+            let dr = e.sigmas.rotation_misses(&w) * share;
             dt.max(dr)
         })
         .collect();

@@ -91,7 +91,7 @@ fn factor(e: &Edge, group: Group) -> Result<(Factor, NoiseModel)> {
     } else {
         Box::new(BetweenFactor::new(SE3::new(t, q)))
     };
-    let noise = if s.slide.is_some() {
+    let noise = if !s.isotropic() {
         let w = s.sqrt_information(sim3);
         NoiseModel::from_sqrt_info(na::DMatrix::from_fn(w.nrows(), w.ncols(), |i, j| w[(i, j)]))
     } else {

@@ -171,6 +171,16 @@ impl Similarity3 {
         }
     }
 
+    /// The rigid motion with this rotation that moves `c` where this
+    /// transform does: `R p + (s R c + t - R c)`.
+    pub fn rigid_about(&self, c: &Vector3<f64>) -> Self {
+        Similarity3 {
+            scale: 1.0,
+            rotation: self.rotation,
+            translation: self.apply(c) - self.rotation * c,
+        }
+    }
+
     /// Least-squares similarity with `dst_i ~ s R src_i + t` (Umeyama 1991):
     /// with centred point sets and `Sigma = (1/n) sum dst_c src_c^T = U D V^T`,
     /// `R = U S V^T` (`S` flips the last axis when `det(U V^T) < 0`),

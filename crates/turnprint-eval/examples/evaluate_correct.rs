@@ -14,7 +14,8 @@
 //! whose name contains it. `VERBOSE=1` lists every loop with its true offset.
 //! `ORACLE=1` corrects with the loops the ground truth shows instead of the
 //! search's (what the graph makes of right loops); `NODES=n` and `TOP=k`
-//! set the graph's even keyframes and the loops taken from the search.
+//! set the graph's even keyframes and the loops taken from the search,
+//! `RIGID=1` takes the loops as rigid motions (`CorrectConfig::rigid_loops`).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -274,9 +275,18 @@ fn print_loops(c: &turnprint::correct::Corrected, truth: &[Vector3<f64>]) {
     for l in &c.loops {
         let q = &l.closure;
         let offset = turnprint_eval::revisits::true_offset(q.query_range, q.match_range, truth);
+        // On a path without drift a right loop moves nothing: the RMS move
+        // of the match range is then the loop's own error.
+        let part = &truth[q.match_range[0]..=q.match_range[1]];
+        let moved = (part
+            .iter()
+            .map(|p| (q.query_T_match.apply(p) - p).norm_squared())
+            .sum::<f64>()
+            / part.len() as f64)
+            .sqrt();
         eprintln!(
-            "  q {:?} m {:?} score {:.2} scale {:.3} rmse {:.2} residual {:.1} kept {} true dist {:.1} m",
-            q.query_range, q.match_range, q.score, q.query_T_match.scale, q.rmse, l.residual, l.kept, offset
+            "  q {:?} m {:?} rev {} score {:.2} scale {:.3} rmse {:.2} residual {:.1} kept {} true dist {:.1} m, moves the truth {:.2}",
+            q.query_range, q.match_range, q.reversed, q.score, q.query_T_match.scale, q.rmse, l.residual, l.kept, offset, moved
         );
     }
 }
@@ -322,8 +332,8 @@ fn oracle(
     correct_with_loops(est, &loops, &config())
 }
 
-/// Default settings, with `NODES=` (keyframes at most) and `TOP=` (loops
-/// from the search) to measure their effect.
+/// Default settings, with `NODES=` (keyframes at most), `TOP=` (loops
+/// from the search) and `RIGID=1` (`rigid_loops`) to measure their effect.
 fn config() -> CorrectConfig {
     let mut c = CorrectConfig::default();
     let var = |name: &str| {
@@ -337,6 +347,7 @@ fn config() -> CorrectConfig {
     if let Some(k) = var("TOP") {
         c.loops.top_k = k;
     }
+    c.rigid_loops = std::env::var("RIGID").is_ok();
     c
 }
 
