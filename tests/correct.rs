@@ -322,3 +322,38 @@ fn a_loop_on_a_straight_road_is_kept_whatever_roll_its_fit_took() {
     let after = ape(&after, &truth, Alignment::Se3).unwrap().rmse;
     assert!(after < 0.5 * before, "APE {before:.2} -> {after:.2}");
 }
+
+/// A Sim(3) graph of a path with no scale drift: two loops at scale 1 on
+/// the second lap's long sides and one at scale 1.5 on a short side, which
+/// no other loop and no odometry shows. The odd loop is turned away and
+/// the others kept. Regression: fitted on exactly straight sides, whose
+/// points fix no rotation about their line, the true loops took a half
+/// turn about it and were turned away with the odd one.
+#[test]
+fn a_loop_at_a_scale_no_other_loop_shows_is_turned_away() {
+    use turnprint::correct::Group;
+    use turnprint::geometry::Similarity3;
+    let (path, _) = rectangle_with_overturned_corners();
+    let positions = path.positions();
+    let mut loops: Vec<LoopClosure> = [([805, 1095], [5, 295]), ([1205, 1495], [405, 695])]
+        .into_iter()
+        .map(|(q, m)| LoopClosure::new(&path, q, m, None, 1.0, false).expect("fits"))
+        .collect();
+    let (q, m) = ([1105, 1195], [305, 395]);
+    let fitted = LoopClosure::new(&path, q, m, None, 1.0, false).expect("fits");
+    let c = positions[(q[0] + q[1]) / 2];
+    let grow = Similarity3 {
+        scale: 1.5,
+        rotation: nalgebra::Matrix3::identity(),
+        translation: c - 1.5 * c,
+    };
+    let odd = grow.compose(&fitted.query_T_match);
+    loops.push(LoopClosure::new(&path, q, m, Some(odd), 1.0, false).expect("a loop"));
+    let config = CorrectConfig {
+        group: Group::Sim3,
+        ..CorrectConfig::default()
+    };
+    let corrected = correct_with_loops(&path, &loops, &config).expect("corrects");
+    let kept: Vec<bool> = corrected.loops.iter().map(|l| l.kept).collect();
+    assert_eq!(kept, [true, true, false], "{:?}", corrected.loops);
+}

@@ -9,7 +9,7 @@ pub mod ransac;
 
 pub use grow::{grow_and_refit, Overlap};
 pub use lift::refine_lift;
-pub use polish::{polish, polish_rigid, search_window, RawPath};
+pub use polish::{polish, search_window, Fit, RawPath};
 pub use ransac::ransac_similarity;
 
 /// A 3D refinement (`lift::refine_lift`, `polish::polish`) is taken beyond

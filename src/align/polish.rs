@@ -94,9 +94,20 @@ pub fn search_window(a_range: [usize; 2]) -> [f64; 2] {
     [a0 - margin, a1 + margin]
 }
 
+/// What a polish may change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fit {
+    /// Rotation, translation and scale.
+    Similarity,
+    /// Rotation and translation; the scale stays (paths in one metric
+    /// frame: a drift-correction loop of a path whose scale does not drift).
+    Rigid,
+}
+
 /// `a_T_b` refined on B's poses `b_range` against A's poses in `window`
-/// ([`search_window`]); `a_T_b` itself when the overlap gives too few
-/// pairs or the refinement runs away without bringing the points closer.
+/// ([`search_window`]), as `fit` allows; `a_T_b` itself when the overlap
+/// gives too few pairs or the refinement runs away without bringing the
+/// points closer.
 #[allow(non_snake_case)]
 pub fn polish(
     a: &RawPath,
@@ -104,32 +115,7 @@ pub fn polish(
     b: &[Vector3<f64>],
     b_range: [usize; 2],
     a_T_b: &Similarity3,
-) -> Similarity3 {
-    refine(a, window, b, b_range, a_T_b, false)
-}
-
-/// [`polish`] with the scale held: the rigid motion `a_T_b` (scale 1)
-/// refined, for paths in one metric frame (a drift-correction loop of a
-/// path whose scale does not drift).
-#[allow(non_snake_case)]
-pub fn polish_rigid(
-    a: &RawPath,
-    window: [f64; 2],
-    b: &[Vector3<f64>],
-    b_range: [usize; 2],
-    a_T_b: &Similarity3,
-) -> Similarity3 {
-    refine(a, window, b, b_range, a_T_b, true)
-}
-
-#[allow(non_snake_case)]
-fn refine(
-    a: &RawPath,
-    window: [f64; 2],
-    b: &[Vector3<f64>],
-    b_range: [usize; 2],
-    a_T_b: &Similarity3,
-    rigid: bool,
+    fit: Fit,
 ) -> Similarity3 {
     let (b0, b1) = (b_range[0].min(b_range[1]), b_range[0].max(b_range[1]));
     if b1 >= b.len() || a.points.len() < 2 {
@@ -140,7 +126,7 @@ fn refine(
     let [lo, hi] = window;
     let mut sim = *a_T_b;
     for _ in 0..ITERATIONS {
-        let Some((step, moved)) = gauss_newton_step(a, &sample, &sim, lo, hi, rigid) else {
+        let Some((step, moved)) = gauss_newton_step(a, &sample, &sim, lo, hi, fit) else {
             break;
         };
         sim = step.compose(&sim);
@@ -188,15 +174,14 @@ fn median_distance(
 }
 
 /// One damped Gauss-Newton step, as the similarity to apply after `sim`,
-/// and how far it moves a point at most, relative to the points' spread;
-/// with `rigid`, the scale stays.
+/// and how far it moves a point at most, relative to the points' spread.
 fn gauss_newton_step(
     a: &RawPath,
     sample: &[Vector3<f64>],
     sim: &Similarity3,
     lo: f64,
     hi: f64,
-    rigid: bool,
+    fit: Fit,
 ) -> Option<(Similarity3, f64)> {
     let mapped: Vec<Vector3<f64>> = sample.iter().map(|p| sim.apply(p)).collect();
     let pairs: Vec<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> = mapped
@@ -234,7 +219,7 @@ fn gauss_newton_step(
         let mut j = SMatrix::<f64, 3, 7>::zeros();
         j.fixed_view_mut::<3, 3>(0, 0)
             .copy_from(&(projector * -d.cross_matrix()));
-        if !rigid {
+        if fit == Fit::Similarity {
             j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(projector * d));
         }
         j.fixed_view_mut::<3, 3>(0, 4)
@@ -292,12 +277,12 @@ mod tests {
         p
     }
 
-    /// The corner case: `polish` (`rigid` or not) of B, A's corner and 80
+    /// The corner case: `polish` (as `fit` allows) of B, A's corner and 80
     /// units of each leg in B's own frame (A = `truth` B), from a start
     /// `off_scale` off in scale, 2° off in rotation and half a unit in
     /// translation; the result and its largest error on B's points.
     #[allow(non_snake_case)]
-    fn corner_case(truth_scale: f64, off_scale: f64, rigid: bool) -> (Similarity3, f64) {
+    fn corner_case(truth_scale: f64, off_scale: f64, fit: Fit) -> (Similarity3, f64) {
         let a = corner();
         let truth = Similarity3 {
             scale: truth_scale,
@@ -314,8 +299,7 @@ mod tests {
         .compose(&truth);
         let raw = RawPath::new(&a);
         let window = search_window([40, 389]);
-        let run = if rigid { polish_rigid } else { polish };
-        let a_T_b = run(&raw, window, &b, [0, b.len() - 1], &off);
+        let a_T_b = polish(&raw, window, &b, [0, b.len() - 1], &off, fit);
         let err = b
             .iter()
             .map(|p| (a_T_b.apply(p) - truth.apply(p)).norm())
@@ -327,7 +311,7 @@ mod tests {
     /// 3 % off in scale and 2° off in rotation comes back to the truth.
     #[test]
     fn a_single_corner_fixes_the_scale() {
-        let (fit, err) = corner_case(2.0, 1.03, false);
+        let (fit, err) = corner_case(2.0, 1.03, Fit::Similarity);
         assert!((fit.scale / 2.0 - 1.0).abs() < 1e-4, "{fit:?}");
         assert!(err < 0.05, "largest error {err}");
     }
@@ -336,7 +320,7 @@ mod tests {
     /// a rigid truth and leaves the scale at exactly 1.
     #[test]
     fn the_rigid_polish_holds_the_scale() {
-        let (fit, err) = corner_case(1.0, 1.0, true);
+        let (fit, err) = corner_case(1.0, 1.0, Fit::Rigid);
         assert_eq!(fit.scale, 1.0);
         assert!(err < 0.05, "largest error {err}");
     }
@@ -348,7 +332,14 @@ mod tests {
         let b: Vec<Vector3<f64>> = a[100..200].to_vec();
         let start = Similarity3::identity();
         let raw = RawPath::new(&a);
-        let out = polish(&raw, search_window([100, 199]), &b, [0, 99], &start);
+        let out = polish(
+            &raw,
+            search_window([100, 199]),
+            &b,
+            [0, 99],
+            &start,
+            Fit::Similarity,
+        );
         assert!((out.scale - 1.0).abs() < 0.05, "{out:?}");
         assert!(out.angle() < 0.05, "{out:?}");
     }
@@ -368,7 +359,14 @@ mod tests {
             .collect();
         let start = Similarity3::identity();
         let raw = RawPath::new(&a);
-        let out = polish(&raw, search_window([100, 199]), &b, [0, 99], &start);
+        let out = polish(
+            &raw,
+            search_window([100, 199]),
+            &b,
+            [0, 99],
+            &start,
+            Fit::Similarity,
+        );
         assert!(out.scale > 1.0 / MAX_SCALE_FACTOR, "{out:?}");
     }
 }

@@ -23,12 +23,12 @@
 
 use super::config::Group;
 use super::graph::{Edge, Loose, PoseGraph, Sigmas};
-use crate::geometry::Similarity3;
+use crate::geometry::{nearest_rotation, Similarity3};
 use crate::{Error, Result};
 use apex_solver::manifold::se3::SE3;
 use apex_solver::manifold::sim3::Sim3;
 use apex_solver::manifold::{LieGroup, Tangent};
-use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use nalgebra_apex as na;
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -69,7 +69,7 @@ pub fn to_g2o(graph: &PoseGraph) -> String {
 }
 
 fn pose(p: &Similarity3, with_scale: bool) -> String {
-    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&p.rotation));
+    let q = UnitQuaternion::from_rotation_matrix(&nearest_rotation(&p.rotation));
     let t = p.translation;
     let mut s = format!(
         "{:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}",
@@ -280,7 +280,7 @@ pub fn cost_of(graph: &PoseGraph, poses: &[Similarity3], keep: impl Fn(&Edge) ->
 }
 
 fn apex_parts(p: &Similarity3) -> (na::Vector3<f64>, na::UnitQuaternion<f64>) {
-    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&p.rotation));
+    let q = UnitQuaternion::from_rotation_matrix(&nearest_rotation(&p.rotation));
     let t = p.translation;
     (
         na::Vector3::new(t.x, t.y, t.z),
@@ -516,6 +516,7 @@ fn clip(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Rotation3;
 
     fn pose(angles: (f64, f64, f64), t: [f64; 3], scale: f64) -> Similarity3 {
         Similarity3 {

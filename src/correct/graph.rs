@@ -17,10 +17,10 @@
 use super::config::{CorrectConfig, Group};
 use super::loops::LoopClosure;
 use crate::geometry::plane::Plane;
-use crate::geometry::Similarity3;
+use crate::geometry::{nearest_rotation, Similarity3};
 use crate::trajectory::Trajectory;
 use crate::{Error, Result};
-use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 
 /// Standard deviations of one edge, in its `from` node's units and radians.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -422,7 +422,7 @@ pub fn orientations(path: &Trajectory) -> Vec<Matrix3<f64>> {
         .map(|r| {
             last = r.unwrap_or(last);
             // Re-orthonormalise: the rows above are exact up to rounding.
-            *Rotation3::from_matrix(&last).matrix()
+            *nearest_rotation(&last).matrix()
         })
         .collect()
 }

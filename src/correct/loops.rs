@@ -2,7 +2,7 @@
 //! and the similarity between them, from the loop search or from a file.
 
 use super::graph::arc_length;
-use crate::align::{polish_rigid, search_window, RawPath};
+use crate::align::{polish, search_window, Fit, RawPath};
 use crate::geometry::Similarity3;
 use crate::hypothesis::Hypothesis;
 use crate::trajectory::Trajectory;
@@ -85,21 +85,22 @@ impl LoopClosure {
     /// The loop as a rigid motion, for a graph whose scale does not
     /// drift: the search's similarity with its scale set to 1 about the
     /// match range's centroid, or that motion refined on the poses
-    /// ([`crate::align::polish_rigid`]; `raw` indexes `path`'s poses),
-    /// whichever misses less. The search fits shapes up to scale, and a
-    /// few percent of scale over a long range moves its ends by metres,
-    /// which the rigid graph would read as drift.
+    /// ([`crate::align::polish`] with [`Fit::Rigid`]; `raw` indexes
+    /// `path`'s poses), whichever misses less. The search fits shapes up to
+    /// scale, and a few percent of scale over a long range moves its ends
+    /// by metres, which the rigid graph would read as drift.
     pub fn rigid(&self, path: &Trajectory, raw: &RawPath) -> Result<Self> {
         let positions = path.positions();
         let [m0, m1] = self.match_range;
         let centroid = positions[m0..=m1].iter().sum::<Vector3<f64>>() / (m1 - m0 + 1) as f64;
         let start = self.query_T_match.rigid_about(&centroid);
-        let polished = polish_rigid(
+        let polished = polish(
             raw,
             search_window(self.query_range),
             &positions,
             self.match_range,
             &start,
+            Fit::Rigid,
         );
         let [a, b] = [start, polished].map(|sim| {
             Self::new(

@@ -36,7 +36,7 @@ pub use config::{CorrectConfig, Group, LoopNoise, OdometryNoise};
 pub use graph::PoseGraph;
 pub use loops::LoopClosure;
 
-use crate::geometry::Similarity3;
+use crate::geometry::{nearest_rotation, Similarity3};
 use crate::trajectory::{Pose, Trajectory};
 use crate::Result;
 use nalgebra::{Rotation3, UnitQuaternion};
@@ -193,8 +193,8 @@ pub fn correct_again(
 
 /// With [`CorrectConfig::rigid_loops`], the loops as rigid motions
 /// ([`LoopClosure::rigid`]) where the graph is SE(3); `None` otherwise (and
-/// where the path is not finite, which the graph turns away). A loop travelled the other way keeps the search's
-/// similarity: the two passes of a road driven both ways keep to their own
+/// where the path is not finite, which the graph turns away). A loop
+/// travelled the other way keeps the search's similarity: the two passes of a road driven both ways keep to their own
 /// lanes, and a rigid fit laying one onto the other would read the lanes'
 /// offset as drift (KITTI 08's ground truth, corrected from 0.00 to 0.54 m),
 /// where the similarity's fit of the shapes leaves it in the loop's misfit.
@@ -568,10 +568,8 @@ fn carry(path: &Trajectory, graph: &PoseGraph, solution: &[Similarity3]) -> Vec<
             let (ca, cb) = (&corrections[a], &corrections[b]);
             let position = (1.0 - w) * ca.apply(&pose.position) + w * cb.apply(&pose.position);
             let orientation = pose.orientation.map(|q| {
-                let ra =
-                    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&ca.rotation));
-                let rb =
-                    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&cb.rotation));
+                let ra = UnitQuaternion::from_rotation_matrix(&nearest_rotation(&ca.rotation));
+                let rb = UnitQuaternion::from_rotation_matrix(&nearest_rotation(&cb.rotation));
                 let r = ra.try_slerp(&rb, w, 1e-9).unwrap_or(ra);
                 r * q
             });

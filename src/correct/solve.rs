@@ -5,7 +5,7 @@
 
 use super::config::Group;
 use super::graph::{Edge, PoseGraph};
-use crate::geometry::Similarity3;
+use crate::geometry::{nearest_rotation, Similarity3};
 use crate::{Error, Result};
 use apex_solver::core::problem::Problem;
 use apex_solver::factors::pose::BetweenFactor;
@@ -13,7 +13,7 @@ use apex_solver::manifold::se3::SE3;
 use apex_solver::manifold::sim3::Sim3;
 use apex_solver::optimizer::levenberg_marquardt::{LevenbergMarquardt, LevenbergMarquardtConfig};
 use apex_solver::{JacobianMode, ManifoldType, NoiseModel};
-use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 use nalgebra_apex as na;
 
 /// Relative change of the cost (and of the parameters) below which a solve
@@ -107,7 +107,7 @@ fn factor(e: &Edge, group: Group) -> Result<(Factor, NoiseModel)> {
 }
 
 fn quaternion(p: &Similarity3) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&p.rotation))
+    UnitQuaternion::from_rotation_matrix(&nearest_rotation(&p.rotation))
 }
 
 fn apex_quaternion(p: &Similarity3) -> na::UnitQuaternion<f64> {

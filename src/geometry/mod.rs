@@ -7,4 +7,4 @@ pub mod similarity;
 
 pub use plane::Plane;
 pub use polyline::Polyline2;
-pub use similarity::{Similarity2, Similarity3};
+pub use similarity::{nearest_rotation, Similarity2, Similarity3};

@@ -3,7 +3,7 @@
 //!
 //! `a_T_b` maps points from frame b to frame a: `p_a = s R p_b + t`.
 
-use nalgebra::{Matrix3, Rotation2, Vector2, Vector3};
+use nalgebra::{Matrix3, Rotation2, Rotation3, Vector2, Vector3};
 
 /// A 2D similarity `p_a = s R(angle) p_b + t`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -205,14 +205,25 @@ impl Similarity3 {
         if var_src <= f64::EPSILON {
             return None;
         }
-        let svd = sigma.svd(true, true);
+        let svd = sigma.try_svd(true, true, f64::EPSILON, SVD_ITERATIONS)?;
         let (u, v_t) = (svd.u?, svd.v_t?);
+        let d = svd.singular_values;
         let mut signs = Vector3::new(1.0, 1.0, 1.0);
         if (u * v_t).determinant() < 0.0 {
             signs[2] = -1.0;
         }
-        let rotation = u * Matrix3::from_diagonal(&signs) * v_t;
-        let scale = svd.singular_values.dot(&signs) / var_src;
+        let rotation = if d[1] <= COLLINEAR * d[0] {
+            // Collinear points fix no rotation about their line: the least
+            // rotation that carries the source's line onto the target's.
+            least_rotation(&v_t.row(0).transpose(), &u.column(0).into_owned())
+        } else {
+            u * Matrix3::from_diagonal(&signs) * v_t
+        };
+        let scale = if d[1] <= COLLINEAR * d[0] {
+            d[0] / var_src
+        } else {
+            d.dot(&signs) / var_src
+        };
         let translation = mu_dst - scale * (rotation * mu_src);
         Some(Similarity3 {
             scale,
@@ -245,6 +256,54 @@ impl Similarity3 {
     pub fn angle(&self) -> f64 {
         angle_between(&self.rotation, &Matrix3::identity())
     }
+}
+
+/// Ratio of the second singular value of the cross-covariance to the first
+/// below which [`Similarity3::fit`] takes its points as collinear: √ε, where
+/// the rotation about their line would be set by rounding alone.
+const COLLINEAR: f64 = 1.5e-8;
+
+/// Iterations at most of a 3x3 SVD: its implicit-shift QR steps reach
+/// machine precision within a few per singular value on any finite matrix,
+/// and the bound ends them on input that would never converge.
+const SVD_ITERATIONS: usize = 100;
+
+/// The rotation of least angle taking unit vector `a` to unit vector `b`
+/// (Rodrigues about `a x b`); for opposite vectors, a half turn about the
+/// axis most nearly perpendicular to both.
+fn least_rotation(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {
+    let axis = a.cross(b);
+    let (sin, cos) = (axis.norm(), a.dot(b));
+    if sin > f64::EPSILON {
+        let k = axis / sin;
+        let kx = k.cross_matrix();
+        return Matrix3::identity() + sin * kx + (1.0 - cos) * kx * kx;
+    }
+    if cos > 0.0 {
+        return Matrix3::identity();
+    }
+    let least = a.iamin();
+    let k = a.cross(&Vector3::ith(least, 1.0)).normalize();
+    2.0 * k * k.transpose() - Matrix3::identity()
+}
+
+/// The rotation nearest to `m` in the Frobenius norm, `U diag(1, 1, det(U
+/// V^T)) V^T` for `m = U D V^T` (a rotation up to rounding, or a sum of
+/// rotations), with the SVD bounded by [`SVD_ITERATIONS`]: nalgebra's
+/// `Rotation3::from_matrix` iterates until it converges, which a
+/// degenerate matrix never does. Identity where `m` is not finite.
+pub fn nearest_rotation(m: &Matrix3<f64>) -> Rotation3<f64> {
+    let projected = m
+        .iter()
+        .all(|x| x.is_finite())
+        .then(|| m.try_svd(true, true, f64::EPSILON, SVD_ITERATIONS))
+        .flatten()
+        .and_then(|svd| {
+            let (u, v_t) = (svd.u?, svd.v_t?);
+            let flip = (u * v_t).determinant().signum();
+            Some(u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, flip)) * v_t)
+        });
+    projected.map_or_else(Rotation3::identity, Rotation3::from_matrix_unchecked)
 }
 
 /// Angle in radians of the rotation taking `b` to `a`,
@@ -317,5 +376,56 @@ mod tests {
         assert!(fit.scale < 0.95, "{fit:?}");
         assert_eq!(rigid.scale, 1.0);
         assert!((rigid.angle - fit.angle).abs() < 1e-12 && rigid.angle > 0.0);
+    }
+
+    /// Regression: a fit of points on one line took any rotation about the
+    /// line (a half turn, on the second lap of a rectangle against the
+    /// first), which a loop closure read as a roll of 180 degrees. The fit
+    /// now takes the least rotation that lays the lines onto each other.
+    #[test]
+    fn collinear_points_fit_without_a_turn_about_their_line() {
+        let turn = Rotation3::from_axis_angle(&Vector3::z_axis(), 0.3);
+        let src: Vec<Vector3<f64>> = (0..50)
+            .map(|i| Vector3::new(i as f64, 0.5 * i as f64, 0.0))
+            .collect();
+        let dst: Vec<Vector3<f64>> = src
+            .iter()
+            .map(|p| 2.0 * (turn * p) + Vector3::new(7.0, -1.0, 3.0))
+            .collect();
+        let fit = Similarity3::fit(&src, &dst).expect("spread points");
+        assert!(
+            angle_between(&fit.rotation, turn.matrix()) < 1e-9,
+            "{fit:?}"
+        );
+        assert!((fit.scale - 2.0).abs() < 1e-9, "{fit:?}");
+        for (s, d) in src.iter().zip(&dst) {
+            assert!((fit.apply(s) - d).norm() < 1e-9);
+        }
+    }
+
+    /// A matrix that no rotation is near (zero, rank one, not finite) still
+    /// gives a rotation, and a rotation gives itself.
+    #[test]
+    fn the_nearest_rotation_of_any_matrix_is_a_rotation() {
+        let turn = Rotation3::from_euler_angles(0.3, -1.2, 2.9);
+        let v = Vector3::new(1.0, 2.0, 3.0);
+        for (m, want) in [
+            (*turn.matrix(), Some(turn)),
+            (Matrix3::zeros(), None),
+            (v * v.transpose(), None),
+            (Matrix3::from_element(f64::NAN), Some(Rotation3::identity())),
+            (-Matrix3::identity(), None),
+        ] {
+            let r = nearest_rotation(&m);
+            let r = r.matrix();
+            assert!(
+                (r.transpose() * r - Matrix3::identity()).norm() < 1e-9,
+                "{m}"
+            );
+            assert!((r.determinant() - 1.0).abs() < 1e-9, "{m}");
+            if let Some(want) = want {
+                assert!(angle_between(r, want.matrix()) < 1e-9, "{m}");
+            }
+        }
     }
 }

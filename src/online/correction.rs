@@ -205,7 +205,7 @@ impl Link {
 }
 
 fn moved(raw: &Pose, corrected_T_odometry: &Similarity3) -> Pose {
-    let r = nalgebra::Rotation3::from_matrix(&corrected_T_odometry.rotation);
+    let r = crate::geometry::nearest_rotation(&corrected_T_odometry.rotation);
     Pose {
         t: raw.t,
         position: corrected_T_odometry.apply(&raw.position),

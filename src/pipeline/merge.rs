@@ -5,7 +5,9 @@ use crate::{Hypothesis, Pose, Trajectory};
 /// A's poses, then B's poses mapped by `p_A = s R p_B + t` (orientations
 /// rotated by `R`), as one trajectory.
 pub fn merge(a: &Trajectory, b: &Trajectory, h: &Hypothesis) -> Trajectory {
-    let rotation = nalgebra::UnitQuaternion::from_matrix(&h.rotation);
+    let rotation = nalgebra::UnitQuaternion::from_rotation_matrix(
+        &crate::geometry::nearest_rotation(&h.rotation),
+    );
     let mut poses = a.poses.clone();
     poses.extend(b.poses.iter().map(|p| Pose {
         t: p.t,

@@ -51,7 +51,14 @@ fn polished(
     let raw_a = crate::align::RawPath::new(a);
     for h in &mut hypotheses {
         let window = crate::align::search_window(h.a_range);
-        let a_t_b = crate::align::polish(&raw_a, window, b, h.b_range, &h.similarity());
+        let a_t_b = crate::align::polish(
+            &raw_a,
+            window,
+            b,
+            h.b_range,
+            &h.similarity(),
+            crate::align::Fit::Similarity,
+        );
         h.scale = a_t_b.scale;
         h.rotation = a_t_b.rotation;
         h.translation = a_t_b.translation;
