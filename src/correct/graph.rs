@@ -51,7 +51,7 @@ pub struct Sigmas {
     /// lie on one line, not at all, and a rigid fit then takes whatever
     /// roll its noise suggests (radians of it on a flat straight). The edge
     /// measures rotation about the axis its points spread least around only
-    /// as well as that spread allows ([`roll_axis`]).
+    /// as well as that spread allows (`roll_axis`).
     pub roll: Option<Loose>,
 }
 
@@ -83,7 +83,7 @@ fn block(sigma: f64, loose: Option<Loose>) -> Matrix3<f64> {
 impl Sigmas {
     /// `W` with `Wᵀ W` the information of the edge's residual
     /// `[t (3), ω (3), ln s (Sim(3) only)]`: the translation and rotation
-    /// blocks of [`block`], the scale's sigma.
+    /// blocks of `block`, the scale's sigma.
     pub fn sqrt_information(&self, sim3: bool) -> DMatrix<f64> {
         let n = if sim3 { 7 } else { 6 };
         let mut w = DMatrix::zeros(n, n);

@@ -2,12 +2,13 @@
 //! and the similarity between them, from the loop search or from a file.
 
 use super::graph::arc_length;
-use crate::align::{polish, search_window, Fit, RawPath};
-use crate::geometry::Similarity3;
+use crate::align::{polish, refine_lift, search_window, Fit, RawPath};
+use crate::geometry::plane::Plane;
+use crate::geometry::{Similarity2, Similarity3};
 use crate::hypothesis::Hypothesis;
 use crate::trajectory::Trajectory;
 use crate::{Error, Result};
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Vector2, Vector3};
 
 /// "Poses `match_range`, moved by `query_T_match`, lie on `query_range`."
 #[derive(Debug, Clone, PartialEq)]
@@ -30,7 +31,8 @@ pub struct LoopClosure {
 impl LoopClosure {
     /// A loop of `path` from its ranges and, if known, its similarity
     /// (otherwise fitted to the two ranges paired along their arc length,
-    /// reversed when `reversed`). Ranges outside the path are an error.
+    /// reversed when `reversed`, as the search fits one: `fit_ranges`).
+    /// Ranges outside the path are an error.
     pub fn new(
         path: &Trajectory,
         query_range: [usize; 2],
@@ -62,7 +64,7 @@ impl LoopClosure {
                     "loop similarity has a scale that is not positive and finite",
                 ))
             }
-            None => fit_ranges(query, matched, reversed).ok_or_else(|| {
+            None => fit_ranges(&positions, query, matched, reversed).ok_or_else(|| {
                 Error::input(
                     &path.source,
                     format!(
@@ -85,7 +87,7 @@ impl LoopClosure {
     /// The loop as a rigid motion, for a graph whose scale does not
     /// drift: the search's similarity with its scale set to 1 about the
     /// match range's centroid, or that motion refined on the poses
-    /// ([`crate::align::polish`] with [`Fit::Rigid`]; `raw` indexes
+    /// ([`crate::align::polish()`] with [`Fit::Rigid`]; `raw` indexes
     /// `path`'s poses), whichever misses less. The search fits shapes up to
     /// scale, and a few percent of scale over a long range moves its ends
     /// by metres, which the rigid graph would read as drift.
@@ -212,8 +214,14 @@ fn similarity(e: &serde_json::Value) -> std::result::Result<Option<Similarity3>,
 }
 
 /// Similarity of `matched` onto `query`, pairing the two at equal fractions
-/// of their arc length.
+/// of their arc length, the way the search fits a loop: in the best-fit
+/// plane of the whole path (`positions`), lifted, and refined in 3D only
+/// within the tilt a road's plane allows ([`crate::align::refine_lift`]).
+/// A 3D fit alone takes any rotation about a straight's line, and a road
+/// driven both ways fits a half turn about its centre line best, the two
+/// lanes swapped, which the graph would read as a roll of 180 degrees.
 fn fit_ranges(
+    positions: &[Vector3<f64>],
     query: &[Vector3<f64>],
     matched: &[Vector3<f64>],
     reversed: bool,
@@ -229,13 +237,29 @@ fn fit_ranges(
         let k = s.partition_point(|&x| x < target).min(p.len() - 1);
         p[k]
     };
-    let (mut src, mut dst) = (Vec::new(), Vec::new());
-    for k in 0..samples {
-        let f = k as f64 / (samples - 1) as f64;
-        dst.push(at(query, &sq, f));
-        src.push(at(matched, &sm, if reversed { 1.0 - f } else { f }));
-    }
-    Similarity3::fit(&src, &dst)
+    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = (0..samples)
+        .map(|k| {
+            let f = k as f64 / (samples - 1) as f64;
+            let m = at(matched, &sm, if reversed { 1.0 - f } else { f });
+            (at(query, &sq, f), m)
+        })
+        .collect();
+    let plane = Plane::fit(positions);
+    let flat: Vec<(Vector2<f64>, Vector2<f64>)> = pairs
+        .iter()
+        .map(|(q, m)| (plane.to_2d(q), plane.to_2d(m)))
+        .collect();
+    let lifted = plane.lift(&plane, &Similarity2::fit(&flat, None)?);
+    let mut fit = refine_lift(&lifted, &pairs);
+    // The lift moves nothing along the plane's normal; the passes' mean
+    // height difference (drift, a ramp) is the loop's too. (A 3D fit maps
+    // the centroids onto each other already.)
+    fit.translation += pairs
+        .iter()
+        .map(|(q, m)| q - fit.apply(m))
+        .sum::<Vector3<f64>>()
+        / pairs.len() as f64;
+    Some(fit)
 }
 
 /// RMS distance from each query pose (at most 64, evenly spread) to the

@@ -289,7 +289,7 @@ fn least_rotation(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {
 
 /// The rotation nearest to `m` in the Frobenius norm, `U diag(1, 1, det(U
 /// V^T)) V^T` for `m = U D V^T` (a rotation up to rounding, or a sum of
-/// rotations), with the SVD bounded by [`SVD_ITERATIONS`]: nalgebra's
+/// rotations), with the SVD bounded by `SVD_ITERATIONS`: nalgebra's
 /// `Rotation3::from_matrix` iterates until it converges, which a
 /// degenerate matrix never does. Identity where `m` is not finite.
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Rotation3<f64> {
