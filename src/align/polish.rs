@@ -325,21 +325,31 @@ mod tests {
         assert!(err < 0.05, "largest error {err}");
     }
 
-    /// A straight leaves scale and sliding free: the polish must not wander.
-    #[test]
-    fn a_straight_stays_put() {
-        let a: Vec<Vector3<f64>> = (0..300).map(|i| Vector3::new(i as f64, 0.0, 0.0)).collect();
-        let b: Vec<Vector3<f64>> = a[100..200].to_vec();
+    /// A straight of 300 units along x.
+    fn straight() -> Vec<Vector3<f64>> {
+        (0..300).map(|i| Vector3::new(i as f64, 0.0, 0.0)).collect()
+    }
+
+    /// The similarity polish of B's 100 poses from the identity against
+    /// [`straight`], in the window of its poses 100-199.
+    fn polish_against_a_straight(b: &[Vector3<f64>]) -> Similarity3 {
+        let raw = RawPath::new(&straight());
         let start = Similarity3::identity();
-        let raw = RawPath::new(&a);
-        let out = polish(
+        polish(
             &raw,
             search_window([100, 199]),
-            &b,
+            b,
             [0, 99],
             &start,
             Fit::Similarity,
-        );
+        )
+    }
+
+    /// A straight leaves scale and sliding free: the polish must not wander.
+    #[test]
+    fn a_straight_stays_put() {
+        let b: Vec<Vector3<f64>> = straight()[100..200].to_vec();
+        let out = polish_against_a_straight(&b);
         assert!((out.scale - 1.0).abs() < 0.05, "{out:?}");
         assert!(out.angle() < 0.05, "{out:?}");
     }
@@ -349,7 +359,6 @@ mod tests {
     /// took 5 000 poses of flight to scale 1e-11).
     #[test]
     fn a_collapse_onto_one_point_is_no_polish() {
-        let a: Vec<Vector3<f64>> = (0..300).map(|i| Vector3::new(i as f64, 0.0, 0.0)).collect();
         let b: Vec<Vector3<f64>> = (0..100)
             .map(|i| {
                 let (t, i) = (i as f64 * 2.4, i as f64);
@@ -357,16 +366,7 @@ mod tests {
                 Vector3::new(150.0 + r.x, 8.0 + r.y, 0.0)
             })
             .collect();
-        let start = Similarity3::identity();
-        let raw = RawPath::new(&a);
-        let out = polish(
-            &raw,
-            search_window([100, 199]),
-            &b,
-            [0, 99],
-            &start,
-            Fit::Similarity,
-        );
+        let out = polish_against_a_straight(&b);
         assert!(out.scale > 1.0 / MAX_SCALE_FACTOR, "{out:?}");
     }
 }
