@@ -14,9 +14,9 @@
 //! with or without a summary section), chunk CRCs checked. A file that does
 //! not end with the closing magic bytes (cut short, or left by a recorder
 //! that died) is an error, not a shorter path. Whatever the bytes, the
-//! reader returns an error rather than panicking, and no one record may
-//! claim more than the larger of [`RECORD_LIMIT`] and four times the file's
-//! size.
+//! reader returns an error rather than panicking, no one record may claim
+//! more than the larger of [`RECORD_LIMIT`] and four times the file's size,
+//! and no field more than its record holds (`mcap_fields`).
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -51,6 +51,7 @@ pub fn read_mcap_bytes(bytes: &[u8], topic: Option<&str>) -> Result<Trajectory> 
 /// in `bytes`, named `source` in the trajectory and in messages.
 pub(super) fn read(bytes: &[u8], topic: Option<&str>, source: &str) -> Result<Trajectory> {
     let fail = |message: String| Error::input(source, message);
+    super::mcap_fields::check(bytes).map_err(|m| fail(format!("corrupt MCAP: {m}")))?;
     let mut bag = Bag::default();
     let mut reader = MessageReader::new_with_options(
         LinearReaderOptions::default()

@@ -15,6 +15,8 @@ mod kitti;
 mod lines;
 #[cfg(feature = "mcap")]
 mod mcap;
+#[cfg(feature = "mcap")]
+mod mcap_fields;
 mod tum;
 mod writer;
 mod xyz;
