@@ -100,7 +100,7 @@ fn check_fields(content: &[u8], fields: &[Field], opcode: u8, depth: usize) -> R
             ),
             Rest => return Ok(()),
         };
-        if header as u64 + claimed > rest as u64 {
+        if (header as u64).saturating_add(claimed) > rest as u64 {
             return Err(format!(
                 "field {k} claims {claimed} bytes where {} remain",
                 rest.saturating_sub(header)
@@ -126,7 +126,7 @@ fn check_string_map(mut body: &[u8]) -> Result<(), String> {
     while !body.is_empty() {
         for _ in 0..2 {
             let claimed = u32_at(body, 0).map_or(u64::MAX, u64::from);
-            if 4 + claimed > body.len() as u64 {
+            if claimed.saturating_add(4) > body.len() as u64 {
                 return Err(format!(
                     "a map string claims {claimed} bytes where {} remain",
                     body.len().saturating_sub(4)
@@ -212,6 +212,25 @@ mod tests {
         let mut file = MAGIC.to_vec();
         file.extend(record(0x04, &bad));
         assert!(check(&file).unwrap_err().contains("map string"));
+    }
+
+    /// Regression (`damaged_bags_never_panic`): a field whose length
+    /// itself is cut off read as `u64::MAX`, and the check's sum wrapped.
+    #[test]
+    fn a_length_cut_off_by_the_record_end_is_refused() {
+        let mut chunk = vec![0u8; 28];
+        chunk.extend(string(b""));
+        chunk.extend([1, 2, 3]);
+        let mut file = MAGIC.to_vec();
+        file.extend(record(0x06, &chunk));
+        assert!(check(&file).is_err());
+        let mut channel = vec![1, 0, 1, 0];
+        channel.extend(string(b"/odom"));
+        channel.extend(string(b"cdr"));
+        channel.extend(string(&[3, 0, 0, 0, b'k', b'e', b'y', 9]));
+        let mut file = MAGIC.to_vec();
+        file.extend(record(0x04, &channel));
+        assert!(check(&file).is_err());
     }
 
     /// Records inside an uncompressed chunk are checked too.
