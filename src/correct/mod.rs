@@ -194,10 +194,11 @@ pub fn correct_again(
 /// With [`CorrectConfig::rigid_loops`], the loops as rigid motions
 /// ([`LoopClosure::rigid`]) where the graph is SE(3); `None` otherwise (and
 /// where the path is not finite, which the graph turns away). A loop
-/// travelled the other way keeps the search's similarity: the two passes of a road driven both ways keep to their own
-/// lanes, and a rigid fit laying one onto the other would read the lanes'
-/// offset as drift (KITTI 08's ground truth, corrected from 0.00 to 0.54 m),
-/// where the similarity's fit of the shapes leaves it in the loop's misfit.
+/// travelled the other way keeps the search's similarity: the two passes
+/// of a road driven both ways keep to their own lanes, and a rigid fit
+/// laying one onto the other would read the lanes' offset as drift (KITTI
+/// 08's ground truth, corrected from 0.00 to 0.54 m), where the
+/// similarity's fit of the shapes leaves it in the loop's misfit.
 fn as_rigid(
     path: &Trajectory,
     loops: &[LoopClosure],

@@ -207,7 +207,7 @@ impl Similarity3 {
         }
         let svd = sigma.try_svd(true, true, f64::EPSILON, SVD_ITERATIONS)?;
         let (u, v_t) = (svd.u?, svd.v_t?);
-        let d = svd.singular_values;
+        let d = &svd.singular_values;
         let mut signs = Vector3::new(1.0, 1.0, 1.0);
         if (u * v_t).determinant() < 0.0 {
             signs[2] = -1.0;
@@ -219,11 +219,8 @@ impl Similarity3 {
         } else {
             u * Matrix3::from_diagonal(&signs) * v_t
         };
-        let scale = if d[1] <= COLLINEAR * d[0] {
-            d[0] / var_src
-        } else {
-            d.dot(&signs) / var_src
-        };
+        // tr(Rᵀ Sigma) = tr(D S), and d_0 on a line.
+        let scale = (rotation.transpose() * sigma).trace() / var_src;
         let translation = mu_dst - scale * (rotation * mu_src);
         Some(Similarity3 {
             scale,
