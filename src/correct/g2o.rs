@@ -19,19 +19,18 @@
 //! rotation block each equal on every axis or on all but one (a
 //! [`super::graph::Loose`] axis); anything else is an error, as is any line
 //! that is not one of these records. [`cost`] is the objective the solver
-//! minimises in the convention g2o and GTSAM report.
+//! minimises in the convention g2o and GTSAM report (computed in
+//! [`super::solve`]).
 
 use super::config::Group;
 use super::graph::{Edge, Loose, PoseGraph, Sigmas};
 use crate::geometry::{nearest_rotation, Similarity3};
 use crate::{Error, Result};
-use apex_solver::manifold::se3::SE3;
-use apex_solver::manifold::sim3::Sim3;
-use apex_solver::manifold::{LieGroup, Tangent};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
-use nalgebra_apex as na;
 use std::fmt::Write;
 use std::path::PathBuf;
+
+pub use super::solve::{cost, cost_of};
 
 /// The graph as g2o text (all loops' edges included).
 pub fn to_g2o(graph: &PoseGraph) -> String {
@@ -233,69 +232,6 @@ pub fn from_g2o(text: &str) -> Result<PoseGraph> {
             Group::Se3
         },
     })
-}
-
-/// 0.5 · Σ over `graph`'s edges of the squared whitened residual at `poses`:
-/// the objective apex-solver minimises (the residual of an edge `i -> j` is
-/// the Lie logarithm of `(world_T_i⁻¹ world_T_j)⁻¹ · i_T_j`, translation
-/// through the group's left Jacobian, each component over its sigma), equal
-/// to GTSAM's `graph.error(values)` and half g2o's χ². Every edge counts,
-/// loop edges included.
-/// NaN when `poses` does not hold every node an edge names.
-pub fn cost(graph: &PoseGraph, poses: &[Similarity3]) -> f64 {
-    cost_of(graph, poses, |_| true)
-}
-
-/// [`cost`] over the edges `keep` admits.
-pub fn cost_of(graph: &PoseGraph, poses: &[Similarity3], keep: impl Fn(&Edge) -> bool) -> f64 {
-    let sim3 = graph.group == Group::Sim3;
-    graph
-        .edges
-        .iter()
-        .filter(|e| keep(e))
-        .map(|e| {
-            if e.from.max(e.to) >= poses.len() {
-                return f64::NAN;
-            }
-            let s = e.sigmas;
-            let r: Vec<f64> = if sim3 {
-                let (a, b, m) = (sim(&poses[e.from]), sim(&poses[e.to]), sim(&e.from_T_to));
-                b.between(&a, None, None)
-                    .compose(&m, None, None)
-                    .log(None)
-                    .as_slice()
-                    .to_vec()
-            } else {
-                let (a, b, m) = (se3(&poses[e.from]), se3(&poses[e.to]), se3(&e.from_T_to));
-                b.between(&a, None, None)
-                    .compose(&m, None, None)
-                    .log(None)
-                    .as_slice()
-                    .to_vec()
-            };
-            let whitened = s.sqrt_information(sim3) * nalgebra::DVector::from_vec(r);
-            0.5 * whitened.norm_squared()
-        })
-        .sum()
-}
-
-fn apex_parts(p: &Similarity3) -> (na::Vector3<f64>, na::UnitQuaternion<f64>) {
-    let q = UnitQuaternion::from_rotation_matrix(&nearest_rotation(&p.rotation));
-    let t = p.translation;
-    (
-        na::Vector3::new(t.x, t.y, t.z),
-        na::UnitQuaternion::new_unchecked(na::Quaternion::new(q.w, q.i, q.j, q.k)),
-    )
-}
-
-fn se3(p: &Similarity3) -> SE3 {
-    let (t, q) = apex_parts(p);
-    SE3::new(t, q)
-}
-
-fn sim(p: &Similarity3) -> Sim3 {
-    let (t, q) = apex_parts(p);
-    Sim3::new(t, q, p.scale)
 }
 
 /// The record families of a file; one file holds one.

@@ -245,7 +245,7 @@ fn admit(
     let has_edges = |id: usize| !banned[id] && graph.loop_edges(id).next().is_some();
     let dof = if graph.group == Group::Sim3 { 7.0 } else { 6.0 };
     let cost = |solution: &[Similarity3], active: &[bool]| {
-        g2o::cost_of(graph, solution, |e| {
+        solve::cost_of(graph, solution, |e| {
             e.loop_id
                 .is_none_or(|id| active.get(id).copied().unwrap_or(false))
         })

@@ -1,7 +1,8 @@
 //! Optimisation of a [`PoseGraph`] with apex-solver: Levenberg-Marquardt on
 //! SE(3) or Sim(3) nodes, the first node held fixed, plain least squares
 //! (the loops at odds with the rest are turned away before, by the rise of
-//! the cost they bring: `correct::admit`).
+//! the cost they bring: `correct::admit`), and the graph's cost at any
+//! poses ([`cost`]), the objective it minimises.
 
 use super::config::Group;
 use super::graph::{Edge, PoseGraph};
@@ -11,6 +12,7 @@ use apex_solver::core::problem::Problem;
 use apex_solver::factors::pose::BetweenFactor;
 use apex_solver::manifold::se3::SE3;
 use apex_solver::manifold::sim3::Sim3;
+use apex_solver::manifold::{LieGroup, Tangent};
 use apex_solver::optimizer::levenberg_marquardt::{LevenbergMarquardt, LevenbergMarquardtConfig};
 use apex_solver::{JacobianMode, ManifoldType, NoiseModel};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -83,13 +85,11 @@ type Factor = Box<dyn apex_solver::Factor + Send + Sync>;
 fn factor(e: &Edge, group: Group) -> Result<(Factor, NoiseModel)> {
     let s = e.sigmas;
     let m = &e.from_T_to;
-    let q = apex_quaternion(m);
-    let t = na::Vector3::new(m.translation.x, m.translation.y, m.translation.z);
     let sim3 = group == Group::Sim3;
     let factor: Factor = if sim3 {
-        Box::new(BetweenFactor::new(Sim3::new(t, q, m.scale)))
+        Box::new(BetweenFactor::new(sim(m)))
     } else {
-        Box::new(BetweenFactor::new(SE3::new(t, q)))
+        Box::new(BetweenFactor::new(se3(m)))
     };
     let noise = if !s.isotropic() {
         let w = s.sqrt_information(sim3);
@@ -110,11 +110,6 @@ fn quaternion(p: &Similarity3) -> UnitQuaternion<f64> {
     UnitQuaternion::from_rotation_matrix(&nearest_rotation(&p.rotation))
 }
 
-fn apex_quaternion(p: &Similarity3) -> na::UnitQuaternion<f64> {
-    let q = quaternion(p);
-    na::UnitQuaternion::new_unchecked(na::Quaternion::new(q.w, q.i, q.j, q.k))
-}
-
 /// apex-solver's parameters: `[t, qw, qx, qy, qz]` and, for Sim(3), `s`.
 fn params(p: &Similarity3, with_scale: bool) -> na::DVector<f64> {
     let q = quaternion(p);
@@ -133,4 +128,67 @@ fn from_params(v: &[f64]) -> Similarity3 {
         rotation: *q.to_rotation_matrix().matrix(),
         translation: Vector3::new(v[0], v[1], v[2]),
     }
+}
+
+/// 0.5 · Σ over `graph`'s edges of the squared whitened residual at `poses`:
+/// the objective apex-solver minimises (the residual of an edge `i -> j` is
+/// the Lie logarithm of `(world_T_i⁻¹ world_T_j)⁻¹ · i_T_j`, translation
+/// through the group's left Jacobian, each component over its sigma), equal
+/// to GTSAM's `graph.error(values)` and half g2o's χ². Every edge counts,
+/// loop edges included.
+/// NaN when `poses` does not hold every node an edge names.
+pub fn cost(graph: &PoseGraph, poses: &[Similarity3]) -> f64 {
+    cost_of(graph, poses, |_| true)
+}
+
+/// [`cost`] over the edges `keep` admits.
+pub fn cost_of(graph: &PoseGraph, poses: &[Similarity3], keep: impl Fn(&Edge) -> bool) -> f64 {
+    let sim3 = graph.group == Group::Sim3;
+    graph
+        .edges
+        .iter()
+        .filter(|e| keep(e))
+        .map(|e| {
+            if e.from.max(e.to) >= poses.len() {
+                return f64::NAN;
+            }
+            let s = e.sigmas;
+            let r: Vec<f64> = if sim3 {
+                let (a, b, m) = (sim(&poses[e.from]), sim(&poses[e.to]), sim(&e.from_T_to));
+                b.between(&a, None, None)
+                    .compose(&m, None, None)
+                    .log(None)
+                    .as_slice()
+                    .to_vec()
+            } else {
+                let (a, b, m) = (se3(&poses[e.from]), se3(&poses[e.to]), se3(&e.from_T_to));
+                b.between(&a, None, None)
+                    .compose(&m, None, None)
+                    .log(None)
+                    .as_slice()
+                    .to_vec()
+            };
+            let whitened = s.sqrt_information(sim3) * nalgebra::DVector::from_vec(r);
+            0.5 * whitened.norm_squared()
+        })
+        .sum()
+}
+
+fn apex_parts(p: &Similarity3) -> (na::Vector3<f64>, na::UnitQuaternion<f64>) {
+    let q = quaternion(p);
+    let t = p.translation;
+    (
+        na::Vector3::new(t.x, t.y, t.z),
+        na::UnitQuaternion::new_unchecked(na::Quaternion::new(q.w, q.i, q.j, q.k)),
+    )
+}
+
+fn se3(p: &Similarity3) -> SE3 {
+    let (t, q) = apex_parts(p);
+    SE3::new(t, q)
+}
+
+fn sim(p: &Similarity3) -> Sim3 {
+    let (t, q) = apex_parts(p);
+    Sim3::new(t, q, p.scale)
 }
