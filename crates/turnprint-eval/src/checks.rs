@@ -112,7 +112,7 @@ pub struct MergeVerdict {
     /// Median distance (m) of B's overlap poses, mapped by the hypothesis,
     /// from their true positions in A's frame.
     pub median_error: f64,
-    /// The tolerance: `max(0.02 * overlap length, 3 m)`.
+    /// The tolerance: `max(0.02 * overlap length, 3 m)` for KITTI.
     pub tolerance: f64,
     /// Both reported ranges touch the true overlap.
     pub ranges_hit: bool,
@@ -150,13 +150,29 @@ pub fn merge_verdict_of(
     b_true: &[Vector3<f64>],
     truth: &Overlap,
 ) -> MergeVerdict {
+    let tolerance = (0.02 * truth.length).max(3.0);
+    merge_verdict_within(
+        a_from_b, a_range, b_range, b_input, b_true, truth, tolerance,
+    )
+}
+
+/// [`merge_verdict_of`] with the tolerance given (the evaluation of other
+/// kinds of path states it as a fraction of the common length alone).
+pub fn merge_verdict_within(
+    a_from_b: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+    a_range: [usize; 2],
+    b_range: [usize; 2],
+    b_input: &[Vector3<f64>],
+    b_true: &[Vector3<f64>],
+    truth: &Overlap,
+    tolerance: f64,
+) -> MergeVerdict {
     let errors: Vec<f64> = truth
         .b
         .iter()
         .map(|&k| (a_from_b(&b_input[k]) - b_true[k]).norm())
         .collect();
     let median_error = median(&errors);
-    let tolerance = (0.02 * truth.length).max(3.0);
     let ranges_hit = range_hits(a_range, &truth.a) && range_hits(b_range, &truth.b);
     MergeVerdict {
         median_error,

@@ -95,6 +95,57 @@ impl DriftModel {
     }
 }
 
+impl DriftModel {
+    /// Random walks stated for a whole path of length `length` (any unit):
+    /// heading `heading_rad` and log-scale `log_scale` are the one-sigma
+    /// errors at its end, knots every 1 % of it. The same drift for a
+    /// 30 m flight as for a 3 km drive.
+    pub fn over_length(length: f64, heading_rad: f64, log_scale: f64) -> Self {
+        let root = length.max(f64::MIN_POSITIVE).sqrt();
+        DriftModel {
+            heading_deg_per_sqrt_len: heading_rad.to_degrees() / root,
+            log_scale_per_sqrt_len: log_scale / root,
+            knot_spacing: 0.01 * length.max(f64::MIN_POSITIVE),
+        }
+    }
+}
+
+/// A systematic drift: heading and log-scale errors growing linearly with
+/// the distance travelled, as a miscalibrated wheel base or a monocular
+/// VO's scale drift give (rather than a random walk). At arc length `s` of
+/// a path of length `L` the step `d` becomes
+/// `exp(log_scale s / L) R_n(heading s / L) d`, `R_n` about the normal of
+/// the path's plane.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct DriftBias {
+    /// Heading error at the end of the path (radians, signed).
+    pub heading_rad: f64,
+    /// Log-scale error at the end of the path (signed).
+    pub log_scale: f64,
+}
+
+impl DriftBias {
+    /// The path with this bias: the first pose stays, every later pose is
+    /// the sum of the biased steps before it.
+    pub fn apply(&self, positions: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+        if positions.len() < 2 {
+            return positions.to_vec();
+        }
+        let arc = arc_lengths(positions);
+        let total = arc[arc.len() - 1].max(f64::MIN_POSITIVE);
+        let normal = plane_normal(positions);
+        let mut out = Vec::with_capacity(positions.len());
+        out.push(positions[0]);
+        for i in 1..positions.len() {
+            let f = 0.5 * (arc[i - 1] + arc[i]) / total;
+            let r = Rotation3::from_axis_angle(&normal, f * self.heading_rad);
+            let step = (f * self.log_scale).exp() * (r * (positions[i] - positions[i - 1]));
+            out.push(out[i - 1] + step);
+        }
+        out
+    }
+}
+
 /// Normal of the least-squares plane through the points: the eigenvector of
 /// the scatter matrix with the smallest eigenvalue.
 pub fn plane_normal(points: &[Vector3<f64>]) -> Unit<Vector3<f64>> {
@@ -152,6 +203,42 @@ mod tests {
         let expected = 0.4 * 2000f64.sqrt();
         let got = var.sqrt();
         assert!((got / expected - 1.0).abs() < 0.2, "sd {got} vs {expected}");
+    }
+
+    #[test]
+    fn a_bias_turns_and_stretches_in_proportion_to_the_distance() {
+        let p = straight(1001);
+        let q = DriftBias {
+            heading_rad: 0.2,
+            log_scale: 0.1,
+        }
+        .apply(&p);
+        let (d, e) = (q[1000] - q[999], p[1000] - p[999]);
+        assert!((d.angle(&e) - 0.2).abs() < 2e-3, "{}", d.angle(&e));
+        assert!((d.norm() / e.norm() - 0.1f64.exp()).abs() < 1e-3);
+        let (d, e) = (q[501] - q[500], p[501] - p[500]);
+        assert!((d.angle(&e) - 0.1).abs() < 2e-3, "{}", d.angle(&e));
+    }
+
+    #[test]
+    fn a_walk_over_the_length_ends_at_its_sigma_whatever_the_unit() {
+        for unit in [0.01, 1.0, 100.0] {
+            let p: Vec<_> = straight(2001).into_iter().map(|v| v * unit).collect();
+            let model = DriftModel::over_length(2000.0 * unit, 0.3, 0.0);
+            let mut rng = StdRng::seed_from_u64(5);
+            let runs = 300;
+            let mut var = 0.0;
+            for _ in 0..runs {
+                let q = model.apply(&p, &mut rng);
+                let (d, e) = (q[2000] - q[1999], p[2000] - p[1999]);
+                var += d.angle(&e).powi(2) / runs as f64;
+            }
+            assert!(
+                (var.sqrt() / 0.3 - 1.0).abs() < 0.2,
+                "unit {unit}: {}",
+                var.sqrt()
+            );
+        }
     }
 
     #[test]

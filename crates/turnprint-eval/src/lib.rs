@@ -11,6 +11,7 @@ pub mod baseline;
 pub mod checks;
 pub mod data;
 pub mod drift;
+pub mod kinds;
 pub mod loops;
 pub mod merge;
 pub mod report;

@@ -12,6 +12,7 @@ use serde::Serialize;
 use super::baseline::Naive;
 use super::checks::{loop_correct, median, LoopClaim};
 use super::drift::DriftModel;
+use super::revisits::Event;
 use super::similarity::random_similarity;
 use super::{Prepared, Source};
 use turnprint::pipeline::{find_loops, Config};
@@ -68,19 +69,22 @@ fn input(
     }
 }
 
-/// Scores a ranked list of loop claims on one run.
-fn score(
+/// Scores a ranked list of loop claims on one run: the events a correct
+/// claim's query range touches (`frames[i]`: the truth's frame of input pose
+/// `i`), the claims, the correct ones, and each claim's verdict (correct
+/// within `radius` of the truth).
+pub fn score(
     claims: &[LoopClaim],
     truth: &[Vector3<f64>],
     frames: &[f64],
-    p: &Prepared,
+    events: &[Event],
+    radius: f64,
 ) -> (usize, usize, usize, Vec<bool>) {
     let ok: Vec<bool> = claims
         .iter()
-        .map(|c| loop_correct(c, truth, LOOP_RADIUS_M))
+        .map(|c| loop_correct(c, truth, radius))
         .collect();
-    let covered = p
-        .events
+    let covered = events
         .iter()
         .filter(|e| {
             claims.iter().zip(&ok).any(|(c, ok)| {
@@ -166,7 +170,8 @@ pub fn run(
 
     let separation = revisit_separation(p, &positions, &frames);
     let make = |method, claims: &[LoopClaim], seconds, error| {
-        let (events_covered, returned, correct, ok) = score(claims, &truth, &frames, p);
+        let (events_covered, returned, correct, ok) =
+            score(claims, &truth, &frames, &p.events, LOOP_RADIUS_M);
         LoopRun {
             sequence: p.seq.name.clone(),
             source,

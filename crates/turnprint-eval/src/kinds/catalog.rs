@@ -1,0 +1,534 @@
+//! Every session of every kind in the data folder, each with the true
+//! position of every pose: its own where it is a reference (motion capture,
+//! RTK, GPS), the reference's at the same time or frame where it is an
+//! estimate. Files that are absent or unreadable are listed, not fatal.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+
+use super::{Kind, MAX_POSES};
+use crate::data::{load_sequence, Sourced};
+use turnprint::io::{self, geodetic_to_enu, Format, Geodetic};
+use turnprint::Trajectory;
+
+/// One recorded path and its truth.
+#[derive(Debug, Clone)]
+pub struct Session {
+    /// Its kind.
+    pub kind: Kind,
+    /// Name in the tables, e.g. `"VI-SLAM MH_02"`.
+    pub name: String,
+    /// The recording it comes from, e.g. `"euroc MH_02"`: an estimate and
+    /// its truth share one.
+    pub recording: String,
+    /// Sessions naming the same frame have truths in common coordinates.
+    pub frame: Option<String>,
+    /// The path as the matcher sees it (an estimate in its own frame, or
+    /// the reference itself).
+    pub input: Vec<Vector3<f64>>,
+    /// The true position of each input pose.
+    pub truth: Vec<Vector3<f64>>,
+    /// The truth is an independent reference: loops can be judged. Dead
+    /// reckoning is its own "truth" (windows of one log share its frame),
+    /// which judges merges of its windows but not its loops.
+    pub judged: bool,
+}
+
+impl Session {
+    fn new(
+        kind: Kind,
+        name: impl Into<String>,
+        frame: Option<&str>,
+        input: Vec<Vector3<f64>>,
+    ) -> Self {
+        let name = name.into();
+        Session {
+            kind,
+            recording: name.clone(),
+            name,
+            frame: frame.map(str::to_string),
+            truth: input.clone(),
+            input,
+            judged: true,
+        }
+        .thinned()
+    }
+
+    fn estimate(
+        kind: Kind,
+        name: impl Into<String>,
+        recording: &str,
+        frame: Option<&str>,
+        pairs: Vec<(Vector3<f64>, Vector3<f64>)>,
+    ) -> Self {
+        let (input, truth) = pairs.into_iter().unzip();
+        Session {
+            kind,
+            name: name.into(),
+            recording: recording.to_string(),
+            frame: frame.map(str::to_string),
+            input,
+            truth,
+            judged: true,
+        }
+        .thinned()
+    }
+
+    /// Every k-th pose, so that at most [`MAX_POSES`] remain.
+    fn thinned(mut self) -> Self {
+        let k = self.input.len().div_ceil(MAX_POSES).max(1);
+        if k > 1 {
+            self.input = self.input.iter().step_by(k).copied().collect();
+            self.truth = self.truth.iter().step_by(k).copied().collect();
+        }
+        self
+    }
+}
+
+/// What the catalog found: the sessions, and the files it could not use
+/// with the reason.
+#[derive(Debug, Default)]
+pub struct Catalog {
+    pub sessions: Vec<Session>,
+    pub skipped: Vec<(String, String)>,
+}
+
+impl Catalog {
+    fn read(&mut self, dir: &Path, rel: &str) -> Option<Trajectory> {
+        let path = dir.join(rel);
+        if !path.exists() {
+            self.skipped.push((rel.to_string(), "absent".into()));
+            return None;
+        }
+        match io::read_trajectory(&path, Format::Auto) {
+            Ok(t) if t.len() >= 20 => Some(t),
+            Ok(t) => {
+                self.skipped
+                    .push((rel.to_string(), format!("{} poses", t.len())));
+                None
+            }
+            Err(e) => {
+                self.skipped.push((rel.to_string(), e.to_string()));
+                None
+            }
+        }
+    }
+
+    fn add(&mut self, dir: &Path, kind: Kind, name: &str, frame: Option<&str>, rel: &str) {
+        if let Some(t) = self.read(dir, rel) {
+            self.sessions
+                .push(Session::new(kind, name, frame, t.positions()));
+        }
+    }
+}
+
+/// The KITTI sequences of the catalog (every one; 01, 03, 04 and 10 do not
+/// revisit and add merge cases and negatives only).
+const KITTI: [&str; 11] = [
+    "00", "01", "02", "03", "04", "05", "06", "07", "08", "09", "10",
+];
+
+/// LiDAR and monocular odometry of KITTI without loop closure, one pose per
+/// frame: (name, folder, file prefix).
+const KITTI_ODOMETRY: [(&str, &str, &str); 5] = [
+    ("MULLS", "odometry/kitti_mulls_dso/mulls_no_loop", ""),
+    ("A-LOAM", "odometry/kitti_aloam", ""),
+    ("GICP", "odometry/kitti_cvo_lidar/lidar_gicp", ""),
+    ("NDT", "odometry/kitti_cvo_lidar/lidar_ndt", ""),
+    ("DSO", "odometry/kitti_mulls_dso/dso", ""),
+];
+
+/// EuRoC sessions: name, frame, ground-truth file.
+const EUROC: [(&str, &str, &str); 11] = [
+    ("MH_01", "euroc-mh", "euroc/MH_01_easy.txt"),
+    (
+        "MH_02",
+        "euroc-mh",
+        "multisession/euroc_vio/gt_open_vins/MH_02_easy.txt",
+    ),
+    (
+        "MH_03",
+        "euroc-mh",
+        "multisession/euroc_vio/gt_open_vins/MH_03_medium.txt",
+    ),
+    (
+        "MH_04",
+        "euroc-mh",
+        "multisession/euroc_vio/gt_open_vins/MH_04_difficult.txt",
+    ),
+    (
+        "MH_05",
+        "euroc-mh",
+        "multisession/euroc_vio/gt_open_vins/MH_05_difficult.txt",
+    ),
+    ("V1_01", "euroc-v1", "euroc/V1_01_easy_original.txt"),
+    (
+        "V1_02",
+        "euroc-v1",
+        "multisession/euroc_vio/gt_open_vins/V1_02_medium.txt",
+    ),
+    (
+        "V1_03",
+        "euroc-v1",
+        "multisession/euroc_vio/gt_open_vins/V1_03_difficult.txt",
+    ),
+    (
+        "V2_01",
+        "euroc-v2",
+        "multisession/euroc_vio/gt_open_vins/V2_01_easy.txt",
+    ),
+    (
+        "V2_02",
+        "euroc-v2",
+        "multisession/euroc_vio/gt_open_vins/V2_02_medium.txt",
+    ),
+    (
+        "V2_03",
+        "euroc-v2",
+        "multisession/euroc_vio/gt_open_vins/V2_03_difficult.txt",
+    ),
+];
+
+/// Reads every session under `dir` (the shared data layout).
+pub fn catalog(dir: &Path) -> Catalog {
+    let mut c = Catalog::default();
+    kitti(dir, &mut c);
+    for (name, frame, rel) in EUROC {
+        c.add(dir, Kind::Drone, &format!("euroc {name}"), Some(frame), rel);
+    }
+    for n in [3, 6, 9] {
+        let rel = format!(
+            "multisession/openvins_gt/uzhfpv_indoor/indoor_forward_{n}_snapdragon_with_gt.txt"
+        );
+        c.add(
+            dir,
+            Kind::Drone,
+            &format!("uzh-fpv forward {n}"),
+            Some("uzh-fpv"),
+            &rel,
+        );
+    }
+    for s in [
+        "square",
+        "square_fast",
+        "square_head",
+        "circle",
+        "circle_fast",
+        "circle_head",
+    ] {
+        let rel = format!("multisession/openvins_gt/kaist_vio/{s}.txt");
+        c.add(dir, Kind::Drone, &format!("kaist-vio {s}"), None, &rel);
+    }
+    euroc_vio(dir, &mut c);
+    for n in 1..=6 {
+        let rel = format!("multisession/openvins_gt/tum_vi/dataset-room{n}_512_16.txt");
+        c.add(
+            dir,
+            Kind::Handheld,
+            &format!("tum-vi room{n}"),
+            Some("tum-vi"),
+            &rel,
+        );
+    }
+    c.add(
+        dir,
+        Kind::Handheld,
+        "tum fr2/desk",
+        None,
+        "evo/fr2_desk_groundtruth.txt",
+    );
+    for (name, rel) in [
+        ("intel", "carmen/intel_odom.csv"),
+        ("fr079", "carmen/fr079_odom.csv"),
+        ("aces", "carmen/more/aces_odom.csv"),
+        ("mit-csail", "carmen/more/mit-csail_odom.csv"),
+        ("fr-clinic", "carmen/more/fr-clinic_robotlaser_odom.csv"),
+    ] {
+        if let Some(t) = c.read(dir, rel) {
+            let mut s = Session::new(Kind::Wheeled, format!("carmen {name}"), None, t.positions());
+            s.judged = false;
+            c.sessions.push(s);
+        }
+    }
+    c.add(
+        dir,
+        Kind::CarGps,
+        "evo georeferenced drive",
+        None,
+        "evo/georeferenced.tum",
+    );
+    walkers(dir, &mut c);
+    c
+}
+
+fn kitti(dir: &Path, c: &mut Catalog) {
+    for name in KITTI {
+        let seq = match load_sequence(dir, name) {
+            Ok(seq) => seq,
+            Err(e) => {
+                c.skipped.push((format!("kitti {name}"), e.to_string()));
+                continue;
+            }
+        };
+        let sourced = |s: &Sourced| -> Vec<(Vector3<f64>, Vector3<f64>)> {
+            s.positions
+                .iter()
+                .zip(&s.frames)
+                .map(|(p, f)| (*p, seq.true_position(*f)))
+                .collect()
+        };
+        let frame = format!("kitti {name}");
+        c.sessions.push(Session::new(
+            Kind::Car,
+            format!("kitti {name}"),
+            Some(&frame),
+            seq.gt.clone(),
+        ));
+        if seq.mono.positions.len() >= 20 {
+            c.sessions.push(Session::estimate(
+                Kind::CarOdometry,
+                format!("ORB-SLAM2 mono {name}"),
+                &frame,
+                Some(&frame),
+                sourced(&seq.mono),
+            ));
+        }
+        if seq.stereo.positions.len() >= 20 {
+            c.sessions.push(Session::estimate(
+                Kind::CarOdometry,
+                format!("S-PTAM {name}"),
+                &frame,
+                Some(&frame),
+                sourced(&seq.stereo),
+            ));
+        }
+        if let Some((gps, _)) = &seq.gps {
+            c.sessions.push(Session::estimate(
+                Kind::CarGps,
+                format!("KITTI GPS {name}"),
+                &frame,
+                Some(&frame),
+                sourced(gps),
+            ));
+        }
+        for (method, folder, prefix) in KITTI_ODOMETRY {
+            let rel = format!("{folder}/{prefix}{name}.txt");
+            if !dir.join(&rel).exists() {
+                continue;
+            }
+            let Some(t) = c.read(dir, &rel) else { continue };
+            if t.len() != seq.gt.len() {
+                c.skipped.push((
+                    rel,
+                    format!("{} poses for {} frames", t.len(), seq.gt.len()),
+                ));
+                continue;
+            }
+            let pairs = t
+                .positions()
+                .into_iter()
+                .zip(seq.gt.iter().copied())
+                .collect();
+            c.sessions.push(Session::estimate(
+                Kind::CarOdometry,
+                format!("{method} {name}"),
+                &frame,
+                Some(&frame),
+                pairs,
+            ));
+        }
+    }
+}
+
+/// EuRoC VIO estimates, each paired by time with its session's truth.
+fn euroc_vio(dir: &Path, c: &mut Catalog) {
+    for (name, frame, gt_rel) in EUROC {
+        let candidates = [
+            ("VI-SLAM", format!("multisession/euroc_vio/vislam_rp/laptop_vislam_rp_{name}/stamped_traj_estimate0.txt")),
+            ("mono VIO", format!("multisession/euroc_vio/vio_mono/laptop_vio_mono_{name}/stamped_traj_estimate.txt")),
+        ];
+        for (method, rel) in candidates {
+            if !dir.join(&rel).exists() {
+                continue;
+            }
+            let (Some(est), Some(gt)) = (c.read(dir, &rel), c.read(dir, gt_rel)) else {
+                continue;
+            };
+            let pairs = pair_by_time(&est, &gt);
+            if pairs.len() < 20 {
+                c.skipped
+                    .push((rel, "no poses inside the truth's time span".into()));
+                continue;
+            }
+            c.sessions.push(Session::estimate(
+                Kind::DroneVio,
+                format!("{method} {name}"),
+                &format!("euroc {name}"),
+                Some(frame),
+                pairs,
+            ));
+        }
+    }
+}
+
+/// Each estimate pose with the truth interpolated at its time; poses
+/// outside the truth's span, or where the truth has a gap longer than ten
+/// of its median steps in time, are left out.
+pub fn pair_by_time(est: &Trajectory, truth: &Trajectory) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    let timed: Vec<(f64, Vector3<f64>)> = truth
+        .poses
+        .iter()
+        .filter_map(|p| Some((p.t?, p.position)))
+        .collect();
+    let mut dts: Vec<f64> = timed.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    dts.sort_by(f64::total_cmp);
+    let Some(&dt) = dts.get(dts.len() / 2) else {
+        return Vec::new();
+    };
+    est.poses
+        .iter()
+        .filter_map(|p| {
+            let t = p.t?;
+            let k = timed.partition_point(|(s, _)| *s <= t);
+            let (a, b) = (timed.get(k.checked_sub(1)?)?, timed.get(k)?);
+            if b.0 - a.0 > 10.0 * dt {
+                return None;
+            }
+            let f = (t - a.0) / (b.0 - a.0);
+            Some((p.position, a.1 + (b.1 - a.1) * f))
+        })
+        .collect()
+}
+
+/// Pedestrian GPX tracks, one frame per folder: every track is moved from
+/// the east-north-up frame at its own first point into the frame at the
+/// folder's first track's first point (a translation: the two frames' axes
+/// differ by the angle the origins subtend at the earth's centre, under a
+/// milliradian for a walk's few kilometres).
+fn walkers(dir: &Path, c: &mut Catalog) {
+    let root = dir.join("multisession/gpx_same_route");
+    let Ok(folders) = std::fs::read_dir(&root) else {
+        c.skipped
+            .push(("multisession/gpx_same_route".into(), "absent".into()));
+        return;
+    };
+    let mut folders: Vec<PathBuf> = folders
+        .filter_map(|e| Some(e.ok()?.path()))
+        .filter(|p| p.is_dir())
+        .collect();
+    folders.sort();
+    for folder in folders {
+        let group = folder
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&folder)
+            .into_iter()
+            .flatten()
+            .filter_map(|e| Some(e.ok()?.path()))
+            .filter(|p| p.extension().is_some_and(|x| x.eq_ignore_ascii_case("gpx")))
+            .collect();
+        files.sort();
+        let mut origin: Option<Geodetic> = None;
+        for file in files {
+            let rel = file
+                .strip_prefix(dir)
+                .unwrap_or(&file)
+                .to_string_lossy()
+                .into_owned();
+            let Some(t) = c.read(dir, &rel) else { continue };
+            let Some(first) = std::fs::read_to_string(&file)
+                .ok()
+                .as_deref()
+                .and_then(first_track_point)
+            else {
+                c.skipped
+                    .push((rel, "no track point with lat and lon".into()));
+                continue;
+            };
+            let shift = geodetic_to_enu(origin.get_or_insert(first), &first);
+            let stem = file
+                .file_stem()
+                .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+            let positions = t.positions().into_iter().map(|p| p + shift).collect();
+            c.sessions.push(Session::new(
+                Kind::Walker,
+                format!("{group} {stem}"),
+                Some(&group),
+                positions,
+            ));
+        }
+    }
+}
+
+/// The first `trkpt`'s latitude, longitude and elevation (0 when absent,
+/// as the reader takes it).
+fn first_track_point(text: &str) -> Option<Geodetic> {
+    let start = text.find("trkpt")?;
+    let tag_end = start + text[start..].find('>')?;
+    let body_end = match text[..tag_end].ends_with('/') {
+        true => tag_end,
+        false => text[tag_end..]
+            .find("trkpt>")
+            .map_or(text.len(), |e| tag_end + e),
+    };
+    let element = &text[start..body_end];
+    let attribute = |name: &str| -> Option<f64> {
+        let at = element.find(&format!("{name}="))? + name.len() + 1;
+        let quote = element[at..].chars().next()?;
+        let rest = &element[at + 1..];
+        rest[..rest.find(quote)?].trim().parse().ok()
+    };
+    let height = element
+        .find("<ele>")
+        .and_then(|at| {
+            let rest = &element[at + 5..];
+            rest[..rest.find('<')?].trim().parse().ok()
+        })
+        .unwrap_or(0.0);
+    Some(Geodetic {
+        lat_deg: attribute("lat")?,
+        lon_deg: attribute("lon")?,
+        height,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_track_point_is_read_whatever_the_quotes_and_order() {
+        let g = first_track_point(
+            "<gpx><wpt lat='1' lon='2'/><trk><trkseg><trkpt lon='7.5' lat=\"48.25\"><ele> 310.5 </ele></trkpt><trkpt lat='0' lon='0'/>",
+        )
+        .unwrap();
+        assert_eq!((g.lat_deg, g.lon_deg, g.height), (48.25, 7.5, 310.5));
+        let g = first_track_point(
+            "<trkpt lat=\"1\" lon=\"2\"/><trkpt lat=\"3\" lon=\"4\"><ele>9</ele></trkpt>",
+        )
+        .unwrap();
+        assert_eq!((g.lat_deg, g.lon_deg, g.height), (1.0, 2.0, 0.0));
+        assert!(first_track_point("<rtept lat='1' lon='2'/>").is_none());
+    }
+
+    #[test]
+    fn pairing_by_time_interpolates_and_leaves_out_what_the_truth_does_not_span() {
+        let timed = |ts: &[f64], x: f64| Trajectory {
+            source: String::new(),
+            poses: ts
+                .iter()
+                .map(|t| turnprint::Pose {
+                    t: Some(*t),
+                    position: Vector3::new(x * t, 0.0, 0.0),
+                    orientation: None,
+                })
+                .collect(),
+        };
+        let truth = timed(&[0.0, 1.0, 2.0, 3.0, 50.0, 51.0], 1.0);
+        let est = timed(&[-1.0, 0.5, 2.25, 20.0, 50.5, 60.0], 2.0);
+        let pairs = pair_by_time(&est, &truth);
+        let got: Vec<f64> = pairs.iter().map(|(_, t)| t.x).collect();
+        assert_eq!(got, vec![0.5, 2.25, 50.5]);
+    }
+}

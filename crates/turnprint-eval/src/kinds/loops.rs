@@ -1,0 +1,213 @@
+//! Loop runs of every kind that revisits: `find_loops` and the naive
+//! nearest-earlier-position baseline on each judged session, scored against
+//! the revisit events of its truth.
+//!
+//! Inputs per session: an estimate as recorded (its own drift); for a
+//! reference (motion capture, GPS) the truth itself, the truth under a
+//! random walk (heading 0.3 rad and log-scale 0.05 one-sigma at the path's
+//! end) and the truth under a systematic bias (heading 0.2 rad and
+//! log-scale 0.15 at the end, signs drawn: a miscalibrated wheel base, a
+//! monocular VO's growing scale). Every input is put under a random
+//! similarity.
+
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use rand::{rngs::StdRng, Rng, SeedableRng};
+use serde::Serialize;
+
+use super::{extent, Kind, Session, EVENT_MIN_RADII, LOOP_RADII, REVISIT_GAP, REVISIT_RADIUS};
+use crate::baseline::Naive;
+use crate::checks::{median, LoopClaim};
+use crate::drift::{DriftBias, DriftModel};
+use crate::loops::{score, TOP_K};
+use crate::revisits::{arc_lengths, events, Event};
+use crate::similarity::random_similarity;
+use crate::EVENT_MAX_GAP;
+use turnprint::pipeline::{find_loops, Config};
+use turnprint::Trajectory;
+
+/// One-sigma heading error at the end of the path under the random walk
+/// (radians): about KITTI's strong model over a drive (0.3 rad = 17°).
+pub const WALK_HEADING: f64 = 0.3;
+/// One-sigma log-scale error at the end of the path under the random walk.
+pub const WALK_LOG_SCALE: f64 = 0.05;
+/// Heading error at the end of the path under the bias (radians).
+pub const BIAS_HEADING: f64 = 0.2;
+/// Log-scale error at the end of the path under the bias: a monocular VO
+/// whose scale grows 15 % over its run.
+pub const BIAS_LOG_SCALE: f64 = 0.15;
+
+/// What the loop search is given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Input {
+    /// The reference itself.
+    Truth,
+    /// The reference under a random walk of heading and scale.
+    Walk,
+    /// The reference under a heading and scale bias.
+    Bias,
+    /// A real estimate with its own drift.
+    Estimate,
+}
+
+impl Input {
+    /// Name in the tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Input::Truth => "truth",
+            Input::Walk => "random walk",
+            Input::Bias => "bias",
+            Input::Estimate => "real estimate",
+        }
+    }
+}
+
+/// One session and input through both methods.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopRun {
+    pub kind: Kind,
+    pub session: String,
+    pub input: Input,
+    pub events: usize,
+    /// Events a correct top-10 loop touches: turnprint, naive.
+    pub covered: [usize; 2],
+    /// The best-ranked loop is correct: turnprint, naive.
+    pub rank1_correct: [bool; 2],
+    /// Loops returned, correct among them: turnprint, naive.
+    pub returned: [usize; 2],
+    pub correct: [usize; 2],
+    pub seconds: f64,
+    pub error: Option<String>,
+}
+
+/// The revisit events of a truth by the scale-free rules of the module,
+/// and the revisit radius.
+pub fn truth_events(truth: &[Vector3<f64>]) -> (Vec<Event>, f64) {
+    let arc = arc_lengths(truth);
+    let total = arc.last().copied().unwrap_or(0.0);
+    let radius = REVISIT_RADIUS * extent(truth);
+    let gap = REVISIT_GAP * total;
+    let r2 = radius * radius;
+    let revisits: Vec<Option<usize>> = (0..truth.len())
+        .map(|i| {
+            let end = arc.partition_point(|s| *s <= arc[i] - gap);
+            (0..end)
+                .map(|j| (j, (truth[j] - truth[i]).norm_squared()))
+                .filter(|(_, d2)| *d2 <= r2)
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .map(|(j, _)| j)
+        })
+        .collect();
+    (
+        events(&revisits, &arc, EVENT_MAX_GAP, EVENT_MIN_RADII * radius),
+        radius,
+    )
+}
+
+/// The inputs a session is run with.
+pub fn inputs(s: &Session) -> Vec<Input> {
+    match s.input == s.truth {
+        true => vec![Input::Truth, Input::Walk, Input::Bias],
+        false => vec![Input::Estimate],
+    }
+}
+
+/// Runs both methods on one session and input; `None` when the session is
+/// not judged or its truth has no revisit event.
+pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
+    if !s.judged {
+        return None;
+    }
+    let (events, radius) = truth_events(&s.truth);
+    if events.is_empty() {
+        return None;
+    }
+    let mut rng = StdRng::seed_from_u64(seed);
+    let length = arc_lengths(&s.truth).last().copied().unwrap_or(0.0);
+    let positions = match input {
+        Input::Truth | Input::Estimate => s.input.clone(),
+        Input::Walk => {
+            DriftModel::over_length(length, WALK_HEADING, WALK_LOG_SCALE).apply(&s.truth, &mut rng)
+        }
+        Input::Bias => {
+            let sign = |rng: &mut StdRng| if rng.random::<bool>() { 1.0 } else { -1.0 };
+            DriftBias {
+                heading_rad: sign(&mut rng) * BIAS_HEADING,
+                log_scale: sign(&mut rng) * BIAS_LOG_SCALE,
+            }
+            .apply(&s.truth)
+        }
+    };
+    let sim = random_similarity(&mut rng, extent(&positions).max(f64::MIN_POSITIVE));
+    let positions: Vec<_> = positions.iter().map(|p| sim.apply(p)).collect();
+
+    let mut config = Config::for_loops();
+    config.top_k = TOP_K;
+    let start = Instant::now();
+    let found = find_loops(&Trajectory::from_positions(&s.name, &positions), &config);
+    let seconds = start.elapsed().as_secs_f64();
+    let (mut claims, error) = match found {
+        Ok(h) => (h.iter().map(LoopClaim::from).collect::<Vec<_>>(), None),
+        Err(e) => (Vec::new(), Some(e.to_string())),
+    };
+    claims.sort_by(|x, y| y.score.total_cmp(&x.score));
+    claims.truncate(TOP_K);
+    let naive = naive(&s.truth, radius).loops(&positions);
+
+    let frames: Vec<f64> = (0..s.truth.len()).map(|i| i as f64).collect();
+    let judge = |c: &[LoopClaim]| score(c, &s.truth, &frames, &events, LOOP_RADII * radius);
+    let (t, n) = (judge(&claims), judge(&naive));
+    Some(LoopRun {
+        kind: s.kind,
+        session: s.name.clone(),
+        input,
+        events: events.len(),
+        covered: [t.0, n.0],
+        rank1_correct: [t.3.first() == Some(&true), n.3.first() == Some(&true)],
+        returned: [t.1, n.1],
+        correct: [t.2, n.2],
+        seconds,
+        error,
+    })
+}
+
+/// The naive baseline with the revisit rules of the truth: a match at
+/// least [`REVISIT_GAP`] of the poses back, within the revisit radius in
+/// the input's own median steps.
+fn naive(truth: &[Vector3<f64>], radius: f64) -> Naive {
+    let steps: Vec<f64> = truth
+        .windows(2)
+        .map(|w| (w[1] - w[0]).norm())
+        .filter(|d| *d > 0.0)
+        .collect();
+    Naive {
+        min_gap: ((REVISIT_GAP * truth.len() as f64) as usize).max(1),
+        threshold_steps: radius / median(&steps).max(f64::MIN_POSITIVE),
+        ..Naive::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_square_driven_twice_has_one_event_at_any_scale() {
+        for unit in [0.01, 1.0, 100.0] {
+            let path: Vec<_> = crate::test_paths::square_loop(0, 0.0)
+                .iter()
+                .chain(&crate::test_paths::square_loop(0, 0.0))
+                .map(|p| p * unit)
+                .collect();
+            let (events, radius) = truth_events(&path);
+            assert!((radius / unit - REVISIT_RADIUS * 100.0 * 2f64.sqrt()).abs() < 1e-6);
+            assert_eq!(events.len(), 1, "unit {unit}: {events:?}");
+            assert!(
+                events[0].first <= 400 && events[0].last == 799,
+                "{events:?}"
+            );
+        }
+    }
+}
