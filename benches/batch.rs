@@ -3,7 +3,8 @@
 //! the ZNCC search grows with the square of the length), `match` of two
 //! 5000-pose paths, `match` of KITTI 00 against its 1 Hz GPS
 //! (two sampling rates: matched twice), and, side by side, the FFT ZNCC
-//! against the direct one on the same signature. The paths come from the
+//! against the direct one on the same signature, and reading a generated
+//! 30 000-point GPX track. The paths come from the
 //! shared data (`turnprint_eval::data`); a bench whose file is absent says
 //! so and is skipped.
 
@@ -135,8 +136,34 @@ fn bench_zncc(c: &mut Criterion) {
     group.finish();
 }
 
+/// Reading a GPX track of 30 000 points (a GPS watch's day, 3 MB),
+/// generated: the reader must stay linear in the file's size.
+fn bench_read_gpx(c: &mut Criterion) {
+    let mut text = String::from("<?xml version=\"1.0\"?>\n<gpx version=\"1.1\"><trk><trkseg>\n");
+    for i in 0..30_000 {
+        let (lat, lon) = (
+            48.0 + 1e-5 * i as f64,
+            11.0 + 1e-5 * (i as f64 * 0.01).sin(),
+        );
+        text.push_str(&format!(
+            "<trkpt lat=\"{lat:.7}\" lon=\"{lon:.7}\">\n  <ele>500.0</ele>\n  <time>2024-05-01T10:{:02}:{:02}Z</time>\n</trkpt>\n",
+            (i / 60) % 60,
+            i % 60
+        ));
+    }
+    text.push_str("</trkseg></trk></gpx>\n");
+    let name = std::path::Path::new("generated.gpx");
+    c.bench_function("read_gpx_30k_points", |b| {
+        b.iter(|| {
+            turnprint::io::read_trajectory_from(black_box(text.as_bytes()), name, Format::Gpx)
+                .expect("the generated track reads")
+        })
+    });
+}
+
 criterion_group!(
     benches,
+    bench_read_gpx,
     bench_loops,
     bench_loops_long,
     bench_match,

@@ -83,15 +83,46 @@ enum Field {
     Time,
 }
 
+/// The 1-based line of a byte position, counted on from the position asked
+/// before: the reader asks at every event in increasing order, so the whole
+/// file costs one pass (counting from the start at each event was quadratic:
+/// minutes for a GPS watch's 3 MB track).
+struct LineIndex<'a> {
+    text: &'a [u8],
+    pos: usize,
+    line: usize,
+}
+
+impl<'a> LineIndex<'a> {
+    fn new(text: &'a str) -> Self {
+        LineIndex {
+            text: text.as_bytes(),
+            pos: 0,
+            line: 1,
+        }
+    }
+
+    /// The line of byte `pos` (positions past the end: the last line).
+    fn line(&mut self, pos: u64) -> usize {
+        let end = usize::try_from(pos).map_or(self.text.len(), |p| p.min(self.text.len()));
+        if end < self.pos {
+            *self = LineIndex {
+                text: self.text,
+                pos: 0,
+                line: 1,
+            };
+        }
+        let newlines = self.text[self.pos..end].iter().filter(|&&b| b == b'\n');
+        self.line += newlines.count();
+        self.pos = end;
+        self.line
+    }
+}
+
 /// Parses GPX text into ENU poses.
 pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
-    let line_at = |pos: u64| {
-        let end = usize::try_from(pos).map_or(text.len(), |p| p.min(text.len()));
-        1 + text.as_bytes()[..end]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-    };
+    let mut lines = LineIndex::new(text);
+    let mut line_at = |pos: u64| lines.line(pos);
     let mut reader = Reader::from_str(text);
     let mut open: Vec<String> = Vec::new();
     let mut seen_root = false;
@@ -323,5 +354,26 @@ fn seconds_since_epoch(text: &str) -> std::result::Result<f64, String> {
             "<time> '{}' is not an ISO 8601 date-time",
             clip(text)
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LineIndex;
+
+    #[test]
+    fn lines_are_counted_forwards_backwards_and_past_the_end() {
+        let text = "a\nbb\n\nccc\nd";
+        let mut lines = LineIndex::new(text);
+        let expect = |pos: usize| {
+            1 + text.as_bytes()[..pos.min(text.len())]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+        };
+        for pos in [0, 1, 2, 4, 5, 6, 9, 3, 0, 11, 12, 100, 7] {
+            assert_eq!(lines.line(pos as u64), expect(pos), "byte {pos}");
+        }
+        assert_eq!(lines.line(u64::MAX), 5);
     }
 }
