@@ -209,37 +209,90 @@ impl From<&Hypothesis> for LoopClaim {
 /// match ranges share poses is the trivial self-match (which `cli.md` rules
 /// out) and counts as wrong; so does a range outside the input.
 pub fn loop_correct(claim: &LoopClaim, truth: &[Vector3<f64>], radius: f64) -> bool {
-    let (q0, q1) = (
-        claim.query[0].min(claim.query[1]),
-        claim.query[0].max(claim.query[1]),
-    );
-    let (m0, m1) = (
-        claim.matched[0].min(claim.matched[1]),
-        claim.matched[0].max(claim.matched[1]),
-    );
+    let ([q0, q1], [m0, m1]) = (ordered(claim.query), ordered(claim.matched));
     if q1 >= truth.len() || m1 >= truth.len() || (q0 <= m1 && m0 <= q1) {
         return false;
     }
-    // Long ranges are thinned to at most ~400 poses each: the median of
-    // nearest distances does not need every 10 Hz pose.
+    median_nearest(truth, [q0, q1], [m0, m1], |_, _| true) <= radius
+}
+
+/// The loop test for paths that repeat themselves (laps of a circuit): as
+/// [`loop_correct`], but each query pose's nearest match pose is sought
+/// among those at least `gap` of road away from it (`arc`: cumulative
+/// length of the truth), so the ranges may overlap. A claim that poses
+/// 1000-5000 revisit 100-4100 one lap earlier is right when the laps lie on
+/// one another; the trivial match of a part with itself or its neighbourhood
+/// finds no match pose near enough and is wrong.
+pub fn loop_correct_apart(
+    claim: &LoopClaim,
+    truth: &[Vector3<f64>],
+    arc: &[f64],
+    radius: f64,
+    gap: f64,
+) -> bool {
+    let ([q0, q1], [m0, m1]) = (ordered(claim.query), ordered(claim.matched));
+    if q1 >= truth.len() || m1 >= truth.len() || arc.len() != truth.len() {
+        return false;
+    }
+    median_nearest(truth, [q0, q1], [m0, m1], |q, m| {
+        (arc[q] - arc[m]).abs() >= gap
+    }) <= radius
+}
+
+fn ordered(r: [usize; 2]) -> [usize; 2] {
+    [r[0].min(r[1]), r[0].max(r[1])]
+}
+
+/// Median over the poses of `query` of the distance to the nearest pose of
+/// `matched` that `apart(q, m)` admits (infinite when none). Long ranges are
+/// thinned to at most ~400 poses each: the median of nearest distances does
+/// not need every 10 Hz pose.
+fn median_nearest(
+    truth: &[Vector3<f64>],
+    [q0, q1]: [usize; 2],
+    [m0, m1]: [usize; 2],
+    apart: impl Fn(usize, usize) -> bool,
+) -> f64 {
     let step = |n: usize| n.div_ceil(400).max(1);
-    let matches: Vec<&Vector3<f64>> = truth[m0..=m1].iter().step_by(step(m1 - m0 + 1)).collect();
-    let dists: Vec<f64> = truth[q0..=q1]
-        .iter()
+    let dists: Vec<f64> = (q0..=q1)
         .step_by(step(q1 - q0 + 1))
         .map(|q| {
-            matches
-                .iter()
-                .map(|m| (*m - q).norm())
+            (m0..=m1)
+                .step_by(step(m1 - m0 + 1))
+                .filter(|m| apart(q, *m))
+                .map(|m| (truth[m] - truth[q]).norm())
                 .fold(f64::INFINITY, f64::min)
         })
         .collect();
-    median(&dists) <= radius
+    median(&dists)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn laps_of_a_circuit_are_loops_even_when_their_ranges_overlap() {
+        let lap = crate::test_paths::square_loop(0, 0.0);
+        let truth: Vec<_> = lap.iter().chain(&lap).chain(&lap).copied().collect();
+        let arc = crate::revisits::arc_lengths(&truth);
+        let claim = |query, matched| LoopClaim {
+            query,
+            matched,
+            score: 1.0,
+        };
+        let judge = |c: &LoopClaim| loop_correct_apart(c, &truth, &arc, 3.0, 120.0);
+        // The second and third laps over the first two, one lap back.
+        let laps = claim([400, 1199], [0, 799]);
+        assert!(judge(&laps));
+        assert!(!loop_correct(&laps, &truth, 3.0));
+        assert!(judge(&claim([400, 799], [0, 399])));
+        // The trivial match of a part with itself or its neighbourhood.
+        assert!(!judge(&claim([100, 300], [100, 300])));
+        assert!(!judge(&claim([100, 300], [95, 305])));
+        // Half a lap laid on the other half.
+        assert!(!judge(&claim([600, 799], [0, 199])));
+    }
 
     fn line(n: usize, y: f64) -> Vec<Vector3<f64>> {
         (0..n).map(|i| Vector3::new(i as f64, y, 0.0)).collect()

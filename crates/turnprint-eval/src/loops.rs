@@ -71,30 +71,42 @@ fn input(
 
 /// Scores a ranked list of loop claims on one run: the events a correct
 /// claim's query range touches (`frames[i]`: the truth's frame of input pose
-/// `i`), the claims, the correct ones, and each claim's verdict (correct
-/// within `radius` of the truth).
-pub fn score(
+/// `i`), the claims, the correct ones, and each claim's verdict.
+fn score(
     claims: &[LoopClaim],
     truth: &[Vector3<f64>],
     frames: &[f64],
-    events: &[Event],
-    radius: f64,
+    p: &Prepared,
 ) -> (usize, usize, usize, Vec<bool>) {
     let ok: Vec<bool> = claims
         .iter()
-        .map(|c| loop_correct(c, truth, radius))
+        .map(|c| loop_correct(c, truth, LOOP_RADIUS_M))
         .collect();
-    let covered = events
+    let ranges: Vec<[f64; 2]> = claims
+        .iter()
+        .map(|c| query_range(c).map(|i| frames[i]))
+        .collect();
+    let correct = ok.iter().filter(|x| **x).count();
+    (covered(&ranges, &ok, &p.events), claims.len(), correct, ok)
+}
+
+/// A claim's query range, first index first.
+pub fn query_range(c: &LoopClaim) -> [usize; 2] {
+    [c.query[0].min(c.query[1]), c.query[0].max(c.query[1])]
+}
+
+/// The events touched by the query range (in the truth's frames) of a
+/// claim judged correct (`ok`).
+pub fn covered(ranges: &[[f64; 2]], ok: &[bool], events: &[Event]) -> usize {
+    events
         .iter()
         .filter(|e| {
-            claims.iter().zip(&ok).any(|(c, ok)| {
-                let (q0, q1) = (c.query[0].min(c.query[1]), c.query[0].max(c.query[1]));
-                *ok && frames[q0] <= e.last as f64 && frames[q1] >= e.first as f64
-            })
+            ranges
+                .iter()
+                .zip(ok)
+                .any(|(r, ok)| *ok && r[0] <= e.last as f64 && r[1] >= e.first as f64)
         })
-        .count();
-    let correct = ok.iter().filter(|x| **x).count();
-    (covered, claims.len(), correct, ok)
+        .count()
 }
 
 /// Median input-frame distance between a ground-truth revisit and the frame
@@ -170,8 +182,7 @@ pub fn run(
 
     let separation = revisit_separation(p, &positions, &frames);
     let make = |method, claims: &[LoopClaim], seconds, error| {
-        let (events_covered, returned, correct, ok) =
-            score(claims, &truth, &frames, &p.events, LOOP_RADIUS_M);
+        let (events_covered, returned, correct, ok) = score(claims, &truth, &frames, p);
         LoopRun {
             sequence: p.seq.name.clone(),
             source,

@@ -18,10 +18,10 @@ use serde::Serialize;
 
 use super::{extent, Kind, Session, EVENT_MIN_RADII, LOOP_RADII, REVISIT_GAP, REVISIT_RADIUS};
 use crate::baseline::Naive;
-use crate::checks::{median, LoopClaim};
+use crate::checks::{loop_correct_apart, median, LoopClaim};
 use crate::drift::{DriftBias, DriftModel};
-use crate::loops::{score, TOP_K};
-use crate::revisits::{arc_lengths, events, Event};
+use crate::loops::{covered, query_range, TOP_K};
+use crate::revisits::{arc_lengths, events, true_offset, Event};
 use crate::similarity::random_similarity;
 use crate::EVENT_MAX_GAP;
 use turnprint::pipeline::{find_loops, Config};
@@ -78,6 +78,9 @@ pub struct LoopRun {
     /// Loops returned, correct among them: turnprint, naive.
     pub returned: [usize; 2],
     pub correct: [usize; 2],
+    /// turnprint's loops, best first: the claim, its verdict and the true
+    /// median offset between its passes in revisit radii.
+    pub loops: Vec<(LoopClaim, bool, f64)>,
     pub seconds: f64,
     pub error: Option<String>,
 }
@@ -156,9 +159,10 @@ pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
     claims.truncate(TOP_K);
     let naive = naive(&s.truth, radius).loops(&positions);
 
-    let frames: Vec<f64> = (0..s.truth.len()).map(|i| i as f64).collect();
-    let judge = |c: &[LoopClaim]| score(c, &s.truth, &frames, &events, LOOP_RADII * radius);
-    let (t, n) = (judge(&claims), judge(&naive));
+    let (t, n) = (
+        judge(&claims, s, &events, radius),
+        judge(&naive, s, &events, radius),
+    );
     Some(LoopRun {
         kind: s.kind,
         session: s.name.clone(),
@@ -168,9 +172,38 @@ pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
         rank1_correct: [t.3.first() == Some(&true), n.3.first() == Some(&true)],
         returned: [t.1, n.1],
         correct: [t.2, n.2],
+        loops: claims
+            .iter()
+            .zip(&t.3)
+            .map(|(c, ok)| (*c, *ok, true_offset(c.query, c.matched, &s.truth) / radius))
+            .collect(),
         seconds,
         error,
     })
+}
+
+/// Scores ranked claims on a session: the events a correct claim's query
+/// range touches, the claims, the correct ones, each claim's verdict. A
+/// claim is judged by [`loop_correct_apart`] with the revisit gap, so that
+/// the laps of a circuit flown again and again count.
+fn judge(
+    claims: &[LoopClaim],
+    s: &Session,
+    events: &[Event],
+    radius: f64,
+) -> (usize, usize, usize, Vec<bool>) {
+    let arc = arc_lengths(&s.truth);
+    let gap = REVISIT_GAP * arc.last().copied().unwrap_or(0.0);
+    let ok: Vec<bool> = claims
+        .iter()
+        .map(|c| loop_correct_apart(c, &s.truth, &arc, LOOP_RADII * radius, gap))
+        .collect();
+    let ranges: Vec<[f64; 2]> = claims
+        .iter()
+        .map(|c| query_range(c).map(|i| i as f64))
+        .collect();
+    let correct = ok.iter().filter(|x| **x).count();
+    (covered(&ranges, &ok, events), claims.len(), correct, ok)
 }
 
 /// The naive baseline with the revisit rules of the truth: a match at

@@ -27,6 +27,12 @@ pub struct KindsReport {
     pub loops: Vec<LoopRun>,
 }
 
+/// One row per kind, then one for all (`None`).
+fn rows() -> impl Iterator<Item = (&'static str, Option<Kind>)> {
+    let kinds = Kind::ALL.into_iter().map(|k| (k.name(), Some(k)));
+    kinds.chain(std::iter::once(("all", None)))
+}
+
 fn pct(n: usize, d: usize) -> String {
     match d {
         0 => "-".into(),
@@ -41,12 +47,7 @@ impl KindsReport {
             "| kind | sessions | cases (windows + session pairs) | rank-1 | top-5 | AUC | rank-1 wrong and turned over | unattainable |\n\
              |---|--:|--:|--:|--:|--:|--:|--:|\n",
         );
-        let mut rows: Vec<(String, Option<Kind>)> = Kind::ALL
-            .iter()
-            .map(|k| (k.name().to_string(), Some(*k)))
-            .collect();
-        rows.push(("all".into(), None));
-        for (name, kind) in rows {
+        for (name, kind) in rows() {
             let of = |k: Kind| kind.is_none_or(|x| x == k);
             let cases: Vec<&MergeCase> = self.cases.iter().filter(|c| of(c.kind)).collect();
             let sessions: usize = self
@@ -124,12 +125,7 @@ impl KindsReport {
              |---|---|--:|--:|--:|--:|--:|--:|--:|--:|\n",
         );
         let inputs = [Input::Truth, Input::Walk, Input::Bias, Input::Estimate];
-        let mut rows: Vec<(String, Option<Kind>)> = Kind::ALL
-            .iter()
-            .map(|k| (k.name().to_string(), Some(*k)))
-            .collect();
-        rows.push(("all".into(), None));
-        for (name, kind) in rows {
+        for (name, kind) in rows() {
             for input in inputs {
                 let runs: Vec<&LoopRun> = self
                     .loops
