@@ -418,3 +418,34 @@ fn format_names_parse_and_print_in_lowercase() {
     assert_eq!("TUM".parse::<Format>().unwrap(), Format::Tum);
     assert!("tumx".parse::<Format>().unwrap_err().contains("tum, kitti"));
 }
+
+#[test]
+fn a_gpx_route_without_a_track_is_read_from_its_route_points() {
+    let text = r#"<?xml version="1.0"?>
+<gpx version="1.1" xmlns="http://www.topografix.com/GPX/1/1">
+<wpt lat="47.0" lon="7.0"/>
+<rte><rtept lat="48.0" lon="8.0"><ele>100</ele></rtept><rtept lat="48.001" lon="8.0"><ele>100</ele></rtept>
+<rtept lat="48.002" lon="8.001"><ele>100</ele></rtept></rte></gpx>"#;
+    let traj = parse_trajectory(text, Format::Auto, Path::new("route.gpx")).unwrap();
+    assert_eq!(traj.len(), 3);
+    assert_eq!(traj.poses[0].position, Vector3::zeros());
+    // 0.001° of latitude is about 111 m north.
+    assert!(
+        (traj.poses[1].position.y - 111.2).abs() < 0.5,
+        "{:?}",
+        traj.poses[1]
+    );
+    // With a track, the route is not the path.
+    let both = text.replace(
+        "</rte>",
+        "</rte><trk><trkseg><trkpt lat=\"48.0\" lon=\"8.0\"/><trkpt lat=\"48.0\" lon=\"8.001\"/></trkseg></trk>",
+    );
+    let traj = parse_trajectory(&both, Format::Auto, Path::new("both.gpx")).unwrap();
+    assert_eq!(traj.len(), 2);
+    let bad = text.replace(
+        r#"<rtept lat="48.001" lon="8.0">"#,
+        r#"<rtept lat="48.001">"#,
+    );
+    let err = parse_trajectory(&bad, Format::Auto, Path::new("bad.gpx")).unwrap_err();
+    assert!(err.to_string().contains("<rtept> without lon"), "{err}");
+}

@@ -1,7 +1,9 @@
 //! GPX 1.0/1.1 tracks: every `trkpt` (with `lat`, `lon`, optional `ele` and
 //! `time`) becomes a pose in a local east-north-up frame in metres. Tracks
-//! and segments are joined in file order; waypoints and route points are
-//! not part of the path and are ignored.
+//! and segments are joined in file order; waypoints are not part of the
+//! path and are ignored. A file without track points is read from its route
+//! points (`rtept`, same fields): planned routes and some watches' exports
+//! hold a path only as a route.
 //!
 //! Maths (WGS84, a = 6378137 m, f = 1/298.257223563, e² = f(2 - f)):
 //! a geodetic point (φ, λ, h) has ECEF coordinates
@@ -68,6 +70,8 @@ pub fn geodetic_to_enu(origin: &Geodetic, point: &Geodetic) -> Vector3<f64> {
 /// A track point being read.
 #[derive(Default)]
 struct Point {
+    /// A route point (`rtept`), not a track point.
+    route: bool,
     line: usize,
     depth: usize,
     lat: Option<String>,
@@ -129,6 +133,9 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
     let mut point: Option<Point> = None;
     let mut field: Option<(Field, String, usize)> = None;
     let mut geodetic: Vec<Fix> = Vec::new();
+    // Route points, the path when there is no track point.
+    let mut route: Vec<Fix> = Vec::new();
+    let mut route_point = false;
     loop {
         let line = line_at(reader.buffer_position());
         let event = match reader.read_event() {
@@ -153,13 +160,23 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
                     seen_root = true;
                 }
                 match (name.as_str(), &point) {
-                    ("trkpt", Some(_)) => {
-                        return Err(parse_error(path, line, "<trkpt> inside <trkpt>"))
+                    ("trkpt" | "rtept", Some(_)) => {
+                        let outer = if route_point { "rtept" } else { "trkpt" };
+                        let message = format!("<{name}> inside <{outer}>");
+                        return Err(parse_error(path, line, message));
                     }
-                    ("trkpt", None) => {
-                        let p = start_point(e, line, open.len());
+                    ("trkpt" | "rtept", None) => {
+                        route_point = name == "rtept";
+                        let p = Point {
+                            route: route_point,
+                            ..start_point(e, line, open.len())
+                        };
                         if empty {
-                            geodetic.push(finish_point(p, path)?);
+                            let fix = finish_point(p, path)?;
+                            match route_point {
+                                true => route.push(fix),
+                                false => geodetic.push(fix),
+                            }
                         } else {
                             point = Some(p);
                         }
@@ -187,9 +204,13 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
                         }
                     }
                 }
-                if name == "trkpt" {
+                if name == "trkpt" || name == "rtept" {
                     if let Some(p) = point.take() {
-                        geodetic.push(finish_point(p, path)?);
+                        let fix = finish_point(p, path)?;
+                        match route_point {
+                            true => route.push(fix),
+                            false => geodetic.push(fix),
+                        }
                     }
                 }
             }
@@ -225,6 +246,9 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
     }
     if !seen_root && !text.trim().is_empty() {
         return Err(parse_error(path, 1, "not a GPX file: no XML element"));
+    }
+    if geodetic.is_empty() {
+        geodetic = route;
     }
     let Some(origin) = geodetic.first().map(|f| f.at) else {
         return Ok(Vec::new());
@@ -280,7 +304,8 @@ fn start_point(e: &BytesStart<'_>, line: usize, depth: usize) -> Point {
 fn finish_point(p: Point, path: &Path) -> Result<Fix> {
     let coordinate = |value: &Option<String>, name: &str, limit: f64| {
         let Some(text) = value else {
-            return Err(parse_error(path, p.line, format!("<trkpt> without {name}")));
+            let tag = if p.route { "rtept" } else { "trkpt" };
+            return Err(parse_error(path, p.line, format!("<{tag}> without {name}")));
         };
         match text.trim().parse::<f64>() {
             Ok(v) if v.is_finite() && v.abs() <= limit => Ok(v),

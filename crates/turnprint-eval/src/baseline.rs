@@ -6,7 +6,7 @@
 use nalgebra::Vector3;
 
 use super::checks::{median, LoopClaim};
-use super::revisits::nearest_earlier;
+use super::revisits::{arc_lengths, nearest_earlier, nearest_earlier_apart};
 
 /// Settings of the naive detector.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -24,6 +24,10 @@ pub struct Naive {
     pub max_match_jump: usize,
     /// How many loops to return.
     pub top_k: usize,
+    /// When above 0, the earliest candidate match lies this fraction of the
+    /// input's own length back instead of `min_gap` poses (paths whose poses
+    /// per length vary, as a drone's hovering does).
+    pub min_gap_share: f64,
 }
 
 impl Default for Naive {
@@ -34,6 +38,7 @@ impl Default for Naive {
             max_gap: 5,
             max_match_jump: 50,
             top_k: 10,
+            min_gap_share: 0.0,
         }
     }
 }
@@ -52,10 +57,14 @@ impl Naive {
         }
         // Runs of consecutive hits (gaps <= max_gap) as (i, j, d) lists.
         let mut runs: Vec<Vec<(usize, usize, f64)>> = Vec::new();
-        for (i, n) in nearest_earlier(positions, self.min_gap)
-            .into_iter()
-            .enumerate()
-        {
+        let nearest = match self.min_gap_share > 0.0 {
+            true => {
+                let length = arc_lengths(positions).last().copied().unwrap_or(0.0);
+                nearest_earlier_apart(positions, self.min_gap_share * length)
+            }
+            false => nearest_earlier(positions, self.min_gap),
+        };
+        for (i, n) in nearest.into_iter().enumerate() {
             let Some((j, d)) = n.filter(|(_, d)| *d <= threshold) else {
                 continue;
             };

@@ -34,6 +34,24 @@ pub fn nearest_earlier(positions: &[Vector3<f64>], min_gap: usize) -> Vec<Option
         .collect()
 }
 
+/// For every pose `i`, the nearest pose `j` at least `gap` of road earlier
+/// (`arc[j] <= arc[i] - gap`) and its distance: [`nearest_earlier`] with the
+/// gap in length, for paths whose rate of poses per length varies (a drone
+/// hovering, a walker standing at a crossing).
+pub fn nearest_earlier_apart(positions: &[Vector3<f64>], gap: f64) -> Vec<Option<(usize, f64)>> {
+    let arc = arc_lengths(positions);
+    (0..positions.len())
+        .map(|i| {
+            let end = arc.partition_point(|s| *s <= arc[i] - gap);
+            let p = positions[i];
+            (0..end)
+                .map(|j| (j, (positions[j] - p).norm_squared()))
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .map(|(j, d2)| (j, d2.sqrt()))
+        })
+        .collect()
+}
+
 /// For every pose, the nearest earlier pose (at least `min_gap` poses back)
 /// when it lies within `radius`; `None` otherwise.
 pub fn revisits(positions: &[Vector3<f64>], radius: f64, min_gap: usize) -> Vec<Option<usize>> {

@@ -21,7 +21,7 @@ use crate::baseline::Naive;
 use crate::checks::{loop_correct_apart, median, LoopClaim};
 use crate::drift::{DriftBias, DriftModel};
 use crate::loops::{covered, query_range, TOP_K};
-use crate::revisits::{arc_lengths, events, true_offset, Event};
+use crate::revisits::{arc_lengths, events, nearest_earlier_apart, true_offset, Event};
 use crate::similarity::random_similarity;
 use crate::EVENT_MAX_GAP;
 use turnprint::pipeline::{find_loops, Config};
@@ -91,17 +91,9 @@ pub fn truth_events(truth: &[Vector3<f64>]) -> (Vec<Event>, f64) {
     let arc = arc_lengths(truth);
     let total = arc.last().copied().unwrap_or(0.0);
     let radius = REVISIT_RADIUS * extent(truth);
-    let gap = REVISIT_GAP * total;
-    let r2 = radius * radius;
-    let revisits: Vec<Option<usize>> = (0..truth.len())
-        .map(|i| {
-            let end = arc.partition_point(|s| *s <= arc[i] - gap);
-            (0..end)
-                .map(|j| (j, (truth[j] - truth[i]).norm_squared()))
-                .filter(|(_, d2)| *d2 <= r2)
-                .min_by(|x, y| x.1.total_cmp(&y.1))
-                .map(|(j, _)| j)
-        })
+    let revisits: Vec<Option<usize>> = nearest_earlier_apart(truth, REVISIT_GAP * total)
+        .into_iter()
+        .map(|n| n.filter(|(_, d)| *d <= radius).map(|(j, _)| j))
         .collect();
     (
         events(&revisits, &arc, EVENT_MAX_GAP, EVENT_MIN_RADII * radius),
@@ -207,8 +199,8 @@ fn judge(
 }
 
 /// The naive baseline with the revisit rules of the truth: a match at
-/// least [`REVISIT_GAP`] of the poses back, within the revisit radius in
-/// the input's own median steps.
+/// least [`REVISIT_GAP`] of the input's length back, within the revisit
+/// radius in the input's own median steps.
 fn naive(truth: &[Vector3<f64>], radius: f64) -> Naive {
     let steps: Vec<f64> = truth
         .windows(2)
@@ -216,7 +208,7 @@ fn naive(truth: &[Vector3<f64>], radius: f64) -> Naive {
         .filter(|d| *d > 0.0)
         .collect();
     Naive {
-        min_gap: ((REVISIT_GAP * truth.len() as f64) as usize).max(1),
+        min_gap_share: REVISIT_GAP,
         threshold_steps: radius / median(&steps).max(f64::MIN_POSITIVE),
         ..Naive::default()
     }
