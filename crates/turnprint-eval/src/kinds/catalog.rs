@@ -461,10 +461,16 @@ fn walkers(dir: &Path, c: &mut Catalog) {
     }
 }
 
-/// The first `trkpt`'s latitude, longitude and elevation (0 when absent,
-/// as the reader takes it).
+/// The first `trkpt`'s (or, without one, `rtept`'s) latitude, longitude
+/// and elevation (0 when absent, as the reader takes it).
 fn first_track_point(text: &str) -> Option<Geodetic> {
-    let start = text.find("trkpt")?;
+    // The reader takes the route's points when there is no track point.
+    let tag = if text.contains("trkpt") {
+        "trkpt"
+    } else {
+        "rtept"
+    };
+    let start = text.find(tag)?;
     let tag_end = start + text[start..].find('>')?;
     let body_end = match text[..tag_end].ends_with('/') {
         true => tag_end,
@@ -509,7 +515,10 @@ mod tests {
         )
         .unwrap();
         assert_eq!((g.lat_deg, g.lon_deg, g.height), (1.0, 2.0, 0.0));
-        assert!(first_track_point("<rtept lat='1' lon='2'/>").is_none());
+        let g =
+            first_track_point("<rte><rtept lat='1' lon='2'><ele>3</ele></rtept></rte>").unwrap();
+        assert_eq!((g.lat_deg, g.lon_deg, g.height), (1.0, 2.0, 3.0));
+        assert!(first_track_point("<wpt lat='1' lon='2'/>").is_none());
     }
 
     #[test]
