@@ -138,27 +138,20 @@ pub fn merge_verdict(
         b_input,
         b_true,
         truth,
+        kitti_tolerance(truth),
     )
 }
 
-/// [`merge_verdict`] for any claimed map of B into A and claimed ranges.
+/// The KITTI evaluation's tolerance: 2 % of the common length, at least
+/// 3 m (the GPS's and the monocular estimates' own error).
+pub fn kitti_tolerance(truth: &Overlap) -> f64 {
+    (0.02 * truth.length).max(3.0)
+}
+
+/// [`merge_verdict`] for any claimed map of B into A and claimed ranges,
+/// within `tolerance` (the evaluation of other kinds of path states it as a
+/// fraction of the common length alone).
 pub fn merge_verdict_of(
-    a_from_b: impl Fn(&Vector3<f64>) -> Vector3<f64>,
-    a_range: [usize; 2],
-    b_range: [usize; 2],
-    b_input: &[Vector3<f64>],
-    b_true: &[Vector3<f64>],
-    truth: &Overlap,
-) -> MergeVerdict {
-    let tolerance = (0.02 * truth.length).max(3.0);
-    merge_verdict_within(
-        a_from_b, a_range, b_range, b_input, b_true, truth, tolerance,
-    )
-}
-
-/// [`merge_verdict_of`] with the tolerance given (the evaluation of other
-/// kinds of path states it as a fraction of the common length alone).
-pub fn merge_verdict_within(
     a_from_b: impl Fn(&Vector3<f64>) -> Vector3<f64>,
     a_range: [usize; 2],
     b_range: [usize; 2],
@@ -326,15 +319,19 @@ mod tests {
             .collect();
         let o = overlap(&a, &b_true, 8.0);
         let map = |dx: f64| move |p: &Vector3<f64>| 10.0 * p + Vector3::new(dx, 0.0, 0.0);
-        let good = merge_verdict_of(map(-50.0), [300, 499], [0, 199], &b_input, &b_true, &o);
+        let verdict = |dx, b_range| {
+            let tol = kitti_tolerance(&o);
+            merge_verdict_of(map(dx), [300, 499], b_range, &b_input, &b_true, &o, tol)
+        };
+        let good = verdict(-50.0, [0, 199]);
         assert!(good.correct && good.median_error < 1e-9);
         // 6 m off (tolerance is max(2 % of 207 m, 3 m) = 4.14 m).
-        let v = merge_verdict_of(map(-44.0), [300, 499], [0, 199], &b_input, &b_true, &o);
+        let v = verdict(-44.0, [0, 199]);
         assert!(
             !v.correct && (v.median_error - 6.0).abs() < 1e-9 && (v.tolerance - 4.14).abs() < 1e-9
         );
         // Right similarity, but B's range misses the overlap.
-        let miss = merge_verdict_of(map(-50.0), [300, 499], [400, 599], &b_input, &b_true, &o);
+        let miss = verdict(-50.0, [400, 599]);
         assert!(!miss.correct && miss.median_error < 1e-9);
     }
 

@@ -10,7 +10,8 @@ use serde::Serialize;
 
 use super::ambiguity::{shape_rival, Ambiguity};
 use super::checks::{
-    merge_verdict, merge_verdict_of, overlap, road_turning_deg, MergeVerdict, Overlap,
+    kitti_tolerance, merge_verdict, merge_verdict_of, overlap, road_turning_deg, MergeVerdict,
+    Overlap,
 };
 use super::similarity::{random_similarity, rotation_error_deg, scale_error_pct};
 use super::windows::{overlapping_window, random_window, revisit_windows, Window, WindowSpec};
@@ -253,7 +254,16 @@ pub fn run_case(
             [truth.a[0], truth.a[truth.a.len() - 1]],
             [truth.b[0], truth.b[truth.b.len() - 1]],
         );
-        let v = merge_verdict_of(|p| o.apply(p), a_all, b_all, &b.input, &b.truth, &truth);
+        let tolerance = kitti_tolerance(&truth);
+        let v = merge_verdict_of(
+            |p| o.apply(p),
+            a_all,
+            b_all,
+            &b.input,
+            &b.truth,
+            &truth,
+            tolerance,
+        );
         (o, v)
     });
     // A case that no similarity can pass is not run (the caller skips it).

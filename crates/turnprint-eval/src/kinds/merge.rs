@@ -21,7 +21,7 @@ use rand::{seq::IndexedRandom, Rng};
 use serde::Serialize;
 
 use super::{extent, Kind, Session, MERGE_TOLERANCE, SAME_ROAD};
-use crate::checks::{merge_verdict_within, overlap, MergeVerdict, Overlap};
+use crate::checks::{merge_verdict_of, overlap, MergeVerdict, Overlap};
 use crate::revisits::arc_lengths;
 use crate::similarity::{gaussian, random_similarity, rotation_error_deg};
 use turnprint::geometry::Similarity3;
@@ -208,7 +208,7 @@ fn run(
         return None;
     }
     let verdict = |map: &dyn Fn(&Vector3<f64>) -> Vector3<f64>, ar, br| {
-        merge_verdict_within(
+        merge_verdict_of(
             map,
             ar,
             br,
