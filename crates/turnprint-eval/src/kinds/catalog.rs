@@ -264,6 +264,11 @@ pub fn catalog(dir: &Path) -> Catalog {
 
 fn kitti(dir: &Path, c: &mut Catalog) {
     for name in KITTI {
+        if !dir.join(format!("kitti_gt/{name}.txt")).is_file() {
+            c.skipped
+                .push((format!("kitti_gt/{name}.txt"), "absent".into()));
+            continue;
+        }
         let seq = match load_sequence(dir, name) {
             Ok(seq) => seq,
             Err(e) => {

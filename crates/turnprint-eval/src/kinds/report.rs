@@ -166,7 +166,18 @@ impl KindsReport {
         if !self.loops.is_empty() {
             let _ = writeln!(out, "{}", self.loop_table());
         }
-        for (file, why) in &self.skipped {
+        let absent = self
+            .skipped
+            .iter()
+            .filter(|(_, why)| why == "absent")
+            .count();
+        if absent > 0 {
+            let _ = writeln!(
+                out,
+                "- {absent} files of the catalog are not in the data folder"
+            );
+        }
+        for (file, why) in self.skipped.iter().filter(|(_, why)| why != "absent") {
             let _ = writeln!(out, "- left out: {file}: {why}");
         }
         out
