@@ -80,6 +80,17 @@ struct Point {
     time: Option<(String, usize)>,
 }
 
+impl Point {
+    /// The element it was read from.
+    fn tag(&self) -> &'static str {
+        if self.route {
+            "rtept"
+        } else {
+            "trkpt"
+        }
+    }
+}
+
 /// Which child of `trkpt` the text being read belongs to.
 #[derive(Clone, Copy, PartialEq)]
 enum Field {
@@ -135,7 +146,11 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
     let mut geodetic: Vec<Fix> = Vec::new();
     // Route points, the path when there is no track point.
     let mut route: Vec<Fix> = Vec::new();
-    let mut route_point = false;
+    let mut keep = |p: Point| -> Result<()> {
+        let into = if p.route { &mut route } else { &mut geodetic };
+        into.push(finish_point(p, path)?);
+        Ok(())
+    };
     loop {
         let line = line_at(reader.buffer_position());
         let event = match reader.read_event() {
@@ -160,23 +175,17 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
                     seen_root = true;
                 }
                 match (name.as_str(), &point) {
-                    ("trkpt" | "rtept", Some(_)) => {
-                        let outer = if route_point { "rtept" } else { "trkpt" };
-                        let message = format!("<{name}> inside <{outer}>");
+                    ("trkpt" | "rtept", Some(outer)) => {
+                        let message = format!("<{name}> inside <{}>", outer.tag());
                         return Err(parse_error(path, line, message));
                     }
                     ("trkpt" | "rtept", None) => {
-                        route_point = name == "rtept";
                         let p = Point {
-                            route: route_point,
+                            route: name == "rtept",
                             ..start_point(e, line, open.len())
                         };
                         if empty {
-                            let fix = finish_point(p, path)?;
-                            match route_point {
-                                true => route.push(fix),
-                                false => geodetic.push(fix),
-                            }
+                            keep(p)?;
                         } else {
                             point = Some(p);
                         }
@@ -206,11 +215,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<Pose>> {
                 }
                 if name == "trkpt" || name == "rtept" {
                     if let Some(p) = point.take() {
-                        let fix = finish_point(p, path)?;
-                        match route_point {
-                            true => route.push(fix),
-                            false => geodetic.push(fix),
-                        }
+                        keep(p)?;
                     }
                 }
             }
@@ -304,8 +309,8 @@ fn start_point(e: &BytesStart<'_>, line: usize, depth: usize) -> Point {
 fn finish_point(p: Point, path: &Path) -> Result<Fix> {
     let coordinate = |value: &Option<String>, name: &str, limit: f64| {
         let Some(text) = value else {
-            let tag = if p.route { "rtept" } else { "trkpt" };
-            return Err(parse_error(path, p.line, format!("<{tag}> without {name}")));
+            let message = format!("<{}> without {name}", p.tag());
+            return Err(parse_error(path, p.line, message));
         };
         match text.trim().parse::<f64>() {
             Ok(v) if v.is_finite() && v.abs() <= limit => Ok(v),
