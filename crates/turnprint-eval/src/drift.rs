@@ -82,17 +82,27 @@ impl DriftModel {
             let f = x - k as f64;
             v[k] * (1.0 - f) + v[k + 1] * f
         };
-        let normal = plane_normal(positions);
-        let mut out = Vec::with_capacity(positions.len());
-        out.push(positions[0]);
-        for i in 1..positions.len() {
-            let s = 0.5 * (arc[i - 1] + arc[i]);
-            let r = Rotation3::from_axis_angle(&normal, at(&theta, s));
-            let step = at(&lambda, s).exp() * (r * (positions[i] - positions[i - 1]));
-            out.push(out[i - 1] + step);
-        }
-        out
+        integrate(positions, &arc, |s| (at(&theta, s), at(&lambda, s)))
     }
+}
+
+/// The path whose step at arc length `s` (its middle) is the original
+/// step turned by `heading(s).0` about the normal of the path's plane and
+/// scaled by `exp(heading(s).1)`; the first pose stays.
+fn integrate(
+    positions: &[Vector3<f64>],
+    arc: &[f64],
+    drift: impl Fn(f64) -> (f64, f64),
+) -> Vec<Vector3<f64>> {
+    let normal = plane_normal(positions);
+    let mut out = Vec::with_capacity(positions.len());
+    out.extend(positions.first());
+    for i in 1..positions.len() {
+        let (theta, lambda) = drift(0.5 * (arc[i - 1] + arc[i]));
+        let r = Rotation3::from_axis_angle(&normal, theta);
+        out.push(out[i - 1] + lambda.exp() * (r * (positions[i] - positions[i - 1])));
+    }
+    out
 }
 
 impl DriftModel {
@@ -133,16 +143,9 @@ impl DriftBias {
         }
         let arc = arc_lengths(positions);
         let total = arc[arc.len() - 1].max(f64::MIN_POSITIVE);
-        let normal = plane_normal(positions);
-        let mut out = Vec::with_capacity(positions.len());
-        out.push(positions[0]);
-        for i in 1..positions.len() {
-            let f = 0.5 * (arc[i - 1] + arc[i]) / total;
-            let r = Rotation3::from_axis_angle(&normal, f * self.heading_rad);
-            let step = (f * self.log_scale).exp() * (r * (positions[i] - positions[i - 1]));
-            out.push(out[i - 1] + step);
-        }
-        out
+        integrate(positions, &arc, |s| {
+            (s / total * self.heading_rad, s / total * self.log_scale)
+        })
     }
 }
 

@@ -22,16 +22,7 @@ pub fn arc_lengths(positions: &[Vector3<f64>]) -> Vec<f64> {
 /// (`None` when `i < min_gap`). Brute force: O(n^2), about 10^7 distance
 /// evaluations for a KITTI sequence.
 pub fn nearest_earlier(positions: &[Vector3<f64>], min_gap: usize) -> Vec<Option<(usize, f64)>> {
-    (0..positions.len())
-        .map(|i| {
-            let end = i.checked_sub(min_gap)?;
-            let p = positions[i];
-            (0..=end)
-                .map(|j| (j, (positions[j] - p).norm_squared()))
-                .min_by(|x, y| x.1.total_cmp(&y.1))
-                .map(|(j, d2)| (j, d2.sqrt()))
-        })
-        .collect()
+    nearest_before(positions, |i| (i + 1).checked_sub(min_gap))
 }
 
 /// For every pose `i`, the nearest pose `j` at least `gap` of road earlier
@@ -40,11 +31,21 @@ pub fn nearest_earlier(positions: &[Vector3<f64>], min_gap: usize) -> Vec<Option
 /// hovering, a walker standing at a crossing).
 pub fn nearest_earlier_apart(positions: &[Vector3<f64>], gap: f64) -> Vec<Option<(usize, f64)>> {
     let arc = arc_lengths(positions);
+    nearest_before(positions, |i| {
+        Some(arc.partition_point(|s| *s <= arc[i] - gap))
+    })
+}
+
+/// For every pose `i`, the nearest of the poses `0..end(i)` and its
+/// distance (`None` when there is none).
+fn nearest_before(
+    positions: &[Vector3<f64>],
+    end: impl Fn(usize) -> Option<usize>,
+) -> Vec<Option<(usize, f64)>> {
     (0..positions.len())
         .map(|i| {
-            let end = arc.partition_point(|s| *s <= arc[i] - gap);
             let p = positions[i];
-            (0..end)
+            (0..end(i)?)
                 .map(|j| (j, (positions[j] - p).norm_squared()))
                 .min_by(|x, y| x.1.total_cmp(&y.1))
                 .map(|(j, d2)| (j, d2.sqrt()))

@@ -120,7 +120,8 @@ pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
         return None;
     }
     let mut rng = StdRng::seed_from_u64(seed);
-    let length = arc_lengths(&s.truth).last().copied().unwrap_or(0.0);
+    let arc = arc_lengths(&s.truth);
+    let length = arc.last().copied().unwrap_or(0.0);
     let positions = match input {
         Input::Truth | Input::Estimate => s.input.clone(),
         Input::Walk => {
@@ -151,10 +152,8 @@ pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
     claims.truncate(TOP_K);
     let naive = naive(&s.truth, radius).loops(&positions);
 
-    let (t, n) = (
-        judge(&claims, s, &events, radius),
-        judge(&naive, s, &events, radius),
-    );
+    let judge = |c: &[LoopClaim]| judge(c, &s.truth, &arc, &events, radius);
+    let (t, n) = (judge(&claims), judge(&naive));
     Some(LoopRun {
         kind: s.kind,
         session: s.name.clone(),
@@ -174,21 +173,21 @@ pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
     })
 }
 
-/// Scores ranked claims on a session: the events a correct claim's query
+/// Scores ranked claims on a truth (`arc`: its cumulative length): the events a correct claim's query
 /// range touches, the claims, the correct ones, each claim's verdict. A
 /// claim is judged by [`loop_correct_apart`] with the revisit gap, so that
 /// the laps of a circuit flown again and again count.
 fn judge(
     claims: &[LoopClaim],
-    s: &Session,
+    truth: &[Vector3<f64>],
+    arc: &[f64],
     events: &[Event],
     radius: f64,
 ) -> (usize, usize, usize, Vec<bool>) {
-    let arc = arc_lengths(&s.truth);
     let gap = REVISIT_GAP * arc.last().copied().unwrap_or(0.0);
     let ok: Vec<bool> = claims
         .iter()
-        .map(|c| loop_correct_apart(c, &s.truth, &arc, LOOP_RADII * radius, gap))
+        .map(|c| loop_correct_apart(c, truth, arc, LOOP_RADII * radius, gap))
         .collect();
     let ranges: Vec<[f64; 2]> = claims
         .iter()
