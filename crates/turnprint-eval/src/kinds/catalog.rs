@@ -286,27 +286,17 @@ fn kitti(dir: &Path, c: &mut Catalog) {
         let frame = format!("kitti {name}");
         c.sessions.push(Session::new(
             Kind::Car,
-            format!("kitti {name}"),
+            frame.clone(),
             Some(&frame),
             seq.gt.clone(),
         ));
-        if seq.mono.positions.len() >= 20 {
-            c.sessions.push(Session::estimate(
-                Kind::CarOdometry,
-                format!("ORB-SLAM2 mono {name}"),
-                &frame,
-                Some(&frame),
-                sourced(&seq.mono),
-            ));
-        }
-        if seq.stereo.positions.len() >= 20 {
-            c.sessions.push(Session::estimate(
-                Kind::CarOdometry,
-                format!("S-PTAM {name}"),
-                &frame,
-                Some(&frame),
-                sourced(&seq.stereo),
-            ));
+        for (method, estimate) in [("ORB-SLAM2 mono", &seq.mono), ("S-PTAM", &seq.stereo)] {
+            if estimate.positions.len() >= 20 {
+                let name = format!("{method} {name}");
+                let pairs = sourced(estimate);
+                let s = Session::estimate(Kind::CarOdometry, name, &frame, Some(&frame), pairs);
+                c.sessions.push(s);
+            }
         }
         if let Some((gps, _)) = &seq.gps {
             c.sessions.push(Session::estimate(
