@@ -125,10 +125,12 @@ pub fn grow_and_refit(
             let proj = match predicted {
                 // Growth knows where along the target the point must land:
                 // only the segments within that arc window are looked at.
-                Some((arc, w)) => target_poly.project_among(
+                Some((arc, w)) => target_poly.project_along(
                     &p,
                     tol,
                     segments_within(&target.s, arc - w, arc + w),
+                    &target.s,
+                    arc,
                     |v| allowed(g, v) && (arc_of(v) - arc).abs() <= w,
                 ),
                 None => target_poly.project_within(&p, tol, |v| allowed(g, v)),

@@ -243,18 +243,79 @@ impl Polyline2 {
     }
 
     /// [`Polyline2::project_within`] among segments `segments` only (segment
-    /// `i` joins vertices `i` and `i + 1`): a caller that knows where along
-    /// the polyline the point must land skips the index.
-    pub fn project_among(
+    /// `i` joins vertices `i` and `i + 1`), for a caller that knows where
+    /// along the polyline the point must land: near path length `around`,
+    /// where `arc[i]` is the path length at vertex `i`.
+    ///
+    /// A sum of chords is never shorter than the chord it spans, so a vertex
+    /// `d` away from `p` has no point within `r` of `p` on the `d - r` of
+    /// path on either side of it. The scan starts at `around` and runs both
+    /// ways, jumping over such stretches once a near point bounds `r`: a
+    /// growing overlap projects each point onto a window of hundreds of
+    /// segments of which a few are ever near.
+    pub fn project_along(
         &self,
         p: &Vector2<f64>,
         max_dist: f64,
         segments: Range<usize>,
+        arc: &[f64],
+        around: f64,
         allowed: impl Fn(f64) -> bool,
     ) -> Option<Projection> {
-        let segments = segments.start..segments.end.min(self.vertices.len().saturating_sub(1));
-        self.nearest_in(p, max_dist, segments, &allowed, None)
-            .map(projection)
+        let end = segments.end.min(self.vertices.len().saturating_sub(1));
+        let start = segments.start;
+        if start >= end || arc.len() != self.vertices.len() {
+            return self
+                .nearest_in(p, max_dist, start..end, &allowed, None)
+                .map(projection);
+        }
+        let v = &self.vertices;
+        let mut best: Option<(f64, usize, f64)> = None;
+        // How much of the path beyond vertex `i` may be skipped: its
+        // distance less the reach that still matters, less the vertices'
+        // own rounding (the online history keeps them in f32: a relative
+        // 1e-6 covers two f32 roundings of vertex and chord).
+        let gap = |i: usize, best: &Option<(f64, usize, f64)>| {
+            let d = (p - v[i]).norm();
+            let reach = best.map_or(max_dist, |b| b.0.sqrt().min(max_dist));
+            d - reach - 1e-6 * (v[i].norm() + d)
+        };
+        let centre = (start + arc[start..=end].partition_point(|&x| x <= around))
+            .saturating_sub(1)
+            .clamp(start, end - 1);
+        let mut i = centre;
+        while i < end {
+            let g = gap(i, &best);
+            if g > 0.0 {
+                // The first vertex at least `g` of path beyond `i`: the
+                // segment ending there is the first that may come near.
+                let k = first_not_below(arc, i + 1..end + 1, arc[i] + g);
+                if k - 1 > i {
+                    i = k - 1;
+                    continue;
+                }
+            }
+            best = self.nearest_in(p, max_dist, i..i + 1, &allowed, best);
+            i += 1;
+        }
+        // Backwards from the centre, each segment seen from its end vertex.
+        let mut i = centre;
+        while i > start {
+            let g = gap(i, &best);
+            if g > 0.0 {
+                // The last vertex at least `g` of path before `i`.
+                let Some(j) = last_not_above(arc, start..i, arc[i] - g) else {
+                    break;
+                };
+                if j + 1 < i {
+                    i = j + 1;
+                    continue;
+                }
+            }
+            best = self.nearest_in(p, max_dist, i - 1..i, &allowed, best);
+            i -= 1;
+        }
+        best.map(projection)
     }
 
     /// The nearest allowed point of `segments` within `max_dist` of `p`, as
@@ -288,6 +349,44 @@ impl Polyline2 {
         }
         best
     }
+}
+
+/// The first index of `range` where the ascending `arc` is at least `x`
+/// (`range.end` if none), probed outwards from the start: the skips of
+/// [`Polyline2::project_along`] are mostly short, and a binary search of
+/// the whole window costs more than the segments it skips.
+fn first_not_below(arc: &[f64], range: Range<usize>, x: f64) -> usize {
+    let (mut lo, mut step) = (range.start, 1);
+    // Everything before `lo` (within the range) is below `x`.
+    while lo < range.end && arc[lo] < x {
+        let hi = (lo + step).min(range.end);
+        if hi == range.end || arc[hi] >= x {
+            return lo + 1 + arc[lo + 1..hi].partition_point(|&a| a < x);
+        }
+        lo = hi;
+        step *= 2;
+    }
+    lo
+}
+
+/// The last index of `range` where the ascending `arc` is at most `y`,
+/// probed inwards from the end ([`first_not_below`] mirrored).
+fn last_not_above(arc: &[f64], range: Range<usize>, y: f64) -> Option<usize> {
+    let (mut hi, mut step) = (range.end, 1);
+    // Everything from `hi` on (within the range) is above `y`.
+    while hi > range.start {
+        if arc[hi - 1] <= y {
+            return Some(hi - 1);
+        }
+        let lo = hi.saturating_sub(1 + step).max(range.start);
+        if lo == range.start || arc[lo] <= y {
+            let k = arc[lo..hi - 1].partition_point(|&a| a <= y);
+            return (k > 0).then(|| lo + k - 1);
+        }
+        hi = lo;
+        step *= 2;
+    }
+    None
 }
 
 /// The projection at fraction `t` of segment `i`, `d2` away.
@@ -337,19 +436,68 @@ mod tests {
     }
 
     #[test]
-    fn projecting_among_some_segments_matches_brute_force_on_them() {
-        let pts = zigzag(300);
-        let line = Polyline2::new(&pts);
-        for k in 0..50 {
-            let p = Vector2::new(k as f64 * 6.1 - 3.0, (k % 9) as f64 - 2.0);
-            let segments = (k * 5)..(k * 5 + 40);
-            let end = segments.end.min(pts.len() - 1);
-            let d = brute(&pts[segments.start..=end], &p);
-            let got = line
-                .project_among(&p, f64::INFINITY, segments.clone(), |_| true)
-                .expect("a nearest point");
-            assert!((got.distance - d).abs() < 1e-12, "{k}: {got:?} vs {d}");
-            assert!(segments.contains(&(got.vertex.floor() as usize)) || got.vertex == end as f64);
+    fn projecting_along_some_segments_matches_brute_force_on_them() {
+        // A zigzag (path much longer than its chords) and a spiral that
+        // comes back near itself, with vertices rounded to f32 as the
+        // online history keeps them and lengths summed before rounding.
+        let spiral: Vec<_> = (0..600)
+            .map(|i| {
+                let a = i as f64 * 0.05;
+                Vector2::new((1.0 + 0.01 * a) * a.cos(), (1.0 + 0.01 * a) * a.sin()) * 1e3
+            })
+            .collect();
+        for exact in [zigzag(300), spiral] {
+            let arc: Vec<f64> = std::iter::once(0.0)
+                .chain(exact.windows(2).scan(0.0, |s, w| {
+                    *s += (w[1] - w[0]).norm();
+                    Some(*s)
+                }))
+                .collect();
+            let pts: Vec<_> = exact.iter().map(|p| p.map(|x| x as f32 as f64)).collect();
+            let line = Polyline2::new(&pts);
+            let span = arc[arc.len() - 1];
+            let mut found = 0;
+            for k in 0..200 {
+                let start = k * 7 % (pts.len() - 50);
+                let segments = start..start + 5 + k % 45;
+                let end = segments.end.min(pts.len() - 1);
+                let p = pts[(start + k % 40).min(pts.len() - 1)]
+                    + Vector2::new((k % 13) as f64 - 6.0, (k % 7) as f64 - 3.0) * span * 1e-3;
+                let around = arc[start] + (k % 11) as f64 / 10.0 * (arc[end] - arc[start]);
+                let max_dist = [f64::INFINITY, span * 0.01, span * 0.002][k % 3];
+                let allowed = |v: f64| (v * 10.0) as usize % 4 != 0;
+                let brute = line.nearest_in(&p, max_dist, start..end, &allowed, None);
+                let got = line.project_along(&p, max_dist, segments.clone(), &arc, around, allowed);
+                match (brute.map(projection), got) {
+                    (None, None) => {}
+                    (Some(b), Some(g)) => {
+                        found += 1;
+                        assert!(
+                            (g.distance - b.distance).abs() <= 1e-9 * span,
+                            "{k}: {g:?} vs {b:?}"
+                        );
+                        assert!(g.vertex >= start as f64 && g.vertex <= end as f64);
+                    }
+                    (b, g) => panic!("{k}: brute force {b:?}, along {g:?}"),
+                }
+            }
+            assert!(found > 100, "{found} of 200 cases found a point");
+        }
+    }
+
+    #[test]
+    fn galloping_searches_agree_with_a_binary_search() {
+        let arc: Vec<f64> = (0..40).map(|i| (i / 3) as f64).collect();
+        for start in 0..40 {
+            for end in start..=40 {
+                for x in [-1.0, 0.0, 0.5, 3.0, 7.2, 13.0, 20.0] {
+                    let first = start + arc[start..end].partition_point(|&a| a < x);
+                    assert_eq!(first_not_below(&arc, start..end, x), first);
+                    let k = arc[start..end].partition_point(|&a| a <= x);
+                    let last = (k > 0).then(|| start + k - 1);
+                    assert_eq!(last_not_above(&arc, start..end, x), last);
+                }
+            }
         }
     }
 
