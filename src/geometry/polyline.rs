@@ -465,7 +465,7 @@ mod tests {
                     + Vector2::new((k % 13) as f64 - 6.0, (k % 7) as f64 - 3.0) * span * 1e-3;
                 let around = arc[start] + (k % 11) as f64 / 10.0 * (arc[end] - arc[start]);
                 let max_dist = [f64::INFINITY, span * 0.01, span * 0.002][k % 3];
-                let allowed = |v: f64| (v * 10.0) as usize % 4 != 0;
+                let allowed = |v: f64| !((v * 10.0) as usize).is_multiple_of(4);
                 let brute = line.nearest_in(&p, max_dist, start..end, &allowed, None);
                 let got = line.project_along(&p, max_dist, segments.clone(), &arc, around, allowed);
                 match (brute.map(projection), got) {
