@@ -71,6 +71,11 @@ fn huge_coordinates_overflow_squared_steps_and_hang_the_track_grid() {
 /// `n` poses standing still with a jitter of `radius` (detector_stream's
 /// `Stand`), through a detector warmed up on `warmup` poses.
 fn stand(n: usize, radius: f64, warmup: usize) -> (Vec<CandidateEvent>, Summary) {
+    stands(vec![(n, radius)], warmup)
+}
+
+/// [`stand`] for several stands in turn, each `(n, radius)`.
+fn stands(stands: Vec<(usize, f64)>, warmup: usize) -> (Vec<CandidateEvent>, Summary) {
     within_a_minute(move || {
         let config = OnlineConfig {
             warmup_min_poses: warmup,
@@ -78,14 +83,29 @@ fn stand(n: usize, radius: f64, warmup: usize) -> (Vec<CandidateEvent>, Summary)
             ..OnlineConfig::default()
         };
         let mut detector = Detector::new(config, Overflow::Block);
-        for k in 0..n {
-            let phase = k as f64 * 2.399_963;
-            detector.push(&PoseInput::at(
-                radius * Vector3::new(phase.cos(), phase.sin(), 0.0),
-            ));
+        for (n, radius) in stands {
+            for k in 0..n {
+                let phase = k as f64 * 2.399_963;
+                detector.push(&PoseInput::at(
+                    radius * Vector3::new(phase.cos(), phase.sin(), 0.0),
+                ));
+            }
         }
         detector.finish()
     })
+}
+
+#[test]
+fn jump_after_jump_was_taken_as_a_step_and_the_grid_filled_memory() {
+    // detector_stream (10 minutes): warmed up jittering by 1e-50, then
+    // jittering by a million: every step is a jump. The filter re-anchored
+    // at the first and took the second as a step of 1e56 typical steps,
+    // and the track grid allocated gigabytes of samples for it.
+    let (_, summary) = stands(vec![(220, -1e-50), (127, -1_020_461.283)], 27);
+    assert_eq!(summary.workers_lost, 0);
+    assert_eq!(summary.poses, 347);
+    // Each pose of the second stand is a jump from the one before.
+    assert!(summary.guards.jumps >= 120, "{summary:?}");
 }
 
 #[test]
@@ -102,4 +122,20 @@ fn coordinates_beyond_f32_overflowed_the_history_and_its_cell_keys() {
     assert_eq!(summary.workers_lost, 0);
     assert_eq!(summary.accepted, 250);
     assert!(summary.worker.messages > 0, "{summary:?}");
+}
+
+/// `read_auto` (10 minutes of fuzzing): an uncompressed MCAP chunk whose
+/// record claims more bytes than the chunk holds underflowed the mcap
+/// crate's count of the chunk's remaining bytes (a panic where overflow is
+/// checked). It is refused before the crate reads it.
+#[cfg(feature = "mcap")]
+#[test]
+fn an_mcap_chunk_record_longer_than_its_chunk_underflows_the_reader() {
+    let bag = b"\x89\x4d\x43\x41\x50\x30\x0d\x0a\x2e\x0a\x00\x00\x00\x00\x00\x00\x00\x30\x22\x20\x65\x20\x00\x06\
+        \x06\x06\x06\x06\x06\x06\x06\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\
+        \x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x04\x00\x00\x00\x00\x00\x00\x00\x00\x00\x03\x00\x00\x00\
+        \x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x06\x00\x00\
+        \x00\x00\x00\x00\x64\x2f";
+    let err = read(bag, Format::Auto, "f.mcap").unwrap_err().to_string();
+    assert!(err.contains("chunk"), "{err}");
 }

@@ -64,23 +64,52 @@ pub(super) fn check(bytes: &[u8]) -> Result<(), String> {
     }
 }
 
-/// Checks the records in `bytes`, `depth` chunks deep.
+/// Checks the records in `bytes`, `depth` chunks deep. A file cut short
+/// is left to the crate, which reports it, except inside a chunk: the crate
+/// streams a chunk's records and counts the chunk down by each record's
+/// claimed length, so a record claiming more than its chunk holds
+/// underflowed that count (a panic where overflow is checked; elsewhere
+/// what follows is read as the chunk's records). A chunk's records must
+/// fill it exactly, and a chunk the file cuts short is refused (the read
+/// fails at the cut either way).
 fn check_records(mut bytes: &[u8], depth: usize) -> Result<(), String> {
     let mut index = 0usize;
+    let overrun = |index: usize, opcode: u8, claimed: u64, rest: usize| {
+        format!(
+            "record {index} (opcode {opcode:#04x}) of a chunk claims {claimed} bytes where {rest} remain in the chunk"
+        )
+    };
     while bytes.len() >= 9 {
         let opcode = bytes[0];
-        let Some(len) = usize::try_from(u64_at(bytes, 1)).ok() else {
+        let claimed = u64_at(bytes, 1);
+        let content = usize::try_from(claimed)
+            .ok()
+            .and_then(|len| bytes.get(9..9usize.saturating_add(len)));
+        let Some(content) = content else {
+            if depth > 0 {
+                return Err(overrun(index, opcode, claimed, bytes.len() - 9));
+            }
+            if opcode == 0x06 {
+                return Err(format!(
+                    "record {index} (opcode 0x06): a chunk of {claimed} bytes cut short after {}",
+                    bytes.len() - 9
+                ));
+            }
             return Ok(());
         };
-        let Some(content) = bytes.get(9..9usize.saturating_add(len)) else {
-            return Ok(());
-        };
+        let len = content.len();
         if let Some(fields) = layout(opcode) {
             check_fields(content, fields, opcode, depth)
                 .map_err(|what| format!("record {index} (opcode {opcode:#04x}): {what}"))?;
         }
         bytes = &bytes[9 + len..];
         index += 1;
+    }
+    if depth > 0 && !bytes.is_empty() {
+        return Err(format!(
+            "a chunk ends in {} bytes, too few for a record",
+            bytes.len()
+        ));
     }
     Ok(())
 }
@@ -231,6 +260,32 @@ mod tests {
         let mut file = MAGIC.to_vec();
         file.extend(record(0x04, &channel));
         assert!(check(&file).is_err());
+    }
+
+    /// Regression (fuzzing `read_auto`, 10 minutes): a record inside an
+    /// uncompressed chunk claiming more bytes than the chunk holds (or a
+    /// chunk ending in a partial record) underflowed the crate's count of
+    /// the chunk's remaining bytes.
+    #[test]
+    fn a_record_longer_than_its_chunk_is_refused() {
+        let inner = record(0x01, &[string(b"ros2"), string(b"")].concat());
+        for records in [
+            [&inner[..1], &100u64.to_le_bytes(), &inner[9..]].concat(),
+            [&inner[..], &[0x01, 0, 0]].concat(),
+        ] {
+            let mut chunk = vec![0u8; 28];
+            chunk.extend(string(b""));
+            chunk.extend((records.len() as u64).to_le_bytes());
+            chunk.extend(&records);
+            let mut file = MAGIC.to_vec();
+            file.extend(record(0x06, &chunk));
+            let err = check(&file).unwrap_err();
+            assert!(err.contains("chunk"), "{err}");
+            // The file cut short inside the chunk: the crate would stream
+            // the records that are there.
+            let err = check(&file[..file.len() - 2]).unwrap_err();
+            assert!(err.contains("cut short"), "{err}");
+        }
     }
 
     /// Records inside an uncompressed chunk are checked too.

@@ -140,6 +140,13 @@ impl JumpFilter {
             self.offset += shift;
             let (sp, p) = (sp + shift, p + shift);
             self.accept(sp);
+            if (p - sp).norm() > self.limit {
+                // The new pose jumps again from the suspect: it is held in
+                // turn. Taken as a step, a jump of a million typical steps
+                // made the track grid emit a million samples.
+                self.suspect = Some((index, p));
+                return Passed::One((si, sp));
+            }
             self.accept(p);
             return Passed::Two([(si, sp), (index, p)]);
         }
