@@ -12,21 +12,28 @@ pub enum Error {
     /// The file could not be opened or read.
     #[error("{}: {source}", path.display())]
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the system said.
         #[source]
         source: std::io::Error,
     },
     /// A line of the file could not be understood.
     #[error("{}:{line}: {message}", path.display())]
     Parse {
+        /// The file.
         path: PathBuf,
+        /// The line, counted from 1.
         line: usize,
+        /// What is wrong with it.
         message: String,
     },
     /// The input is readable but cannot be used by the method.
     #[error("{source_name}: {message}")]
     Input {
+        /// The trajectory's name (its file, or what the caller named it).
         source_name: String,
+        /// What is wrong with it.
         message: String,
     },
 }

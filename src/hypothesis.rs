@@ -81,16 +81,27 @@ impl Hypothesis {
 /// JSON form of a hypothesis, field names per `cli.md`.
 #[derive(Debug, Serialize)]
 pub struct HypothesisJson {
+    /// [`Hypothesis::rank`].
     pub rank: usize,
+    /// [`Hypothesis::score`].
     pub score: f64,
+    /// [`Hypothesis::zncc`].
     pub zncc: f64,
+    /// [`Hypothesis::reversed`].
     pub reversed: bool,
+    /// [`Hypothesis::a_range`].
     pub a_range: [usize; 2],
+    /// [`Hypothesis::b_range`].
     pub b_range: [usize; 2],
+    /// [`Hypothesis::scale`].
     pub scale: f64,
+    /// [`Hypothesis::rotation`], row by row.
     pub rotation: [[f64; 3]; 3],
+    /// [`Hypothesis::translation`].
     pub translation: [f64; 3],
+    /// [`Hypothesis::rmse`].
     pub rmse: f64,
+    /// [`Hypothesis::turning`] in degrees.
     pub turning_deg: f64,
 }
 

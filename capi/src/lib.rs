@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! C ABI of turnprint (`include/turnprint.h`), so a visual-odometry or
 //! mapping process written in C or C++ uses the library in
 //! its own address space.

@@ -19,7 +19,12 @@ pub enum Probed {
     /// `query`; the probes' median nearest sample `target`), but no one
     /// similarity lays the probe points on their nearest points: no start
     /// to grow from, but where the network registration looks.
-    Roads { query: [usize; 2], target: usize },
+    Roads {
+        /// The window's track samples.
+        query: [usize; 2],
+        /// The probes' median nearest track sample.
+        target: usize,
+    },
 }
 
 impl Probed {

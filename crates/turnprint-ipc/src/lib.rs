@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! iceoryx2 transport between the detector and the visual verifier sidecar:
 //! keyframe images in (zero-copy), loop-closure candidates out, verdicts back.
 //!
