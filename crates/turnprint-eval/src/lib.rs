@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! The rerunnable evaluation of the batch matcher on real KITTI paths
 //! (`examples/evaluate.rs`): merging windows of ground truth with windows of
 //! ground truth, monocular estimates and GPS under random similarities, and

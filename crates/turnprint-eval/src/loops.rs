@@ -27,8 +27,11 @@ pub const TOP_K: usize = 10;
 /// One method on one input.
 #[derive(Debug, Clone, Serialize)]
 pub struct LoopRun {
+    /// KITTI sequence, e.g. `"00"`.
     pub sequence: String,
+    /// Source of the input path.
     pub source: Source,
+    /// Seed of the input's drift and random similarity.
     pub seed: u64,
     /// `"turnprint"` or `"naive"`.
     pub method: &'static str,
@@ -42,7 +45,10 @@ pub struct LoopRun {
     pub correct: usize,
     /// The best-ranked loop is correct.
     pub rank1_correct: bool,
+    /// Wall time (s) of the method on the input.
     pub seconds: f64,
+    /// `find_loops` failed, with its message (always `None` for the naive
+    /// baseline).
     pub error: Option<String>,
     /// How far apart, in the input's own frame, ground-truth revisits are:
     /// median over revisiting frames of the input distance to the revisited

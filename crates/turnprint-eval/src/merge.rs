@@ -28,10 +28,13 @@ const MIN_POSES: usize = 20;
 /// One positive merge case and how the matcher did.
 #[derive(Debug, Clone, Serialize)]
 pub struct MergeCase {
+    /// KITTI sequence of A and B.
     pub sequence: String,
+    /// Source of B (A is ground truth).
     pub source: Source,
     /// `"time"` (B shares part of A's drive) or `"revisit"` (a later pass).
     pub kind: &'static str,
+    /// B's pose order is reversed.
     pub reversed: bool,
     /// Ground-truth frames of A's window (inclusive).
     pub a_frames: [usize; 2],
@@ -39,7 +42,9 @@ pub struct MergeCase {
     pub b_frames: [usize; 2],
     /// Scale of the random similarity applied to B.
     pub scale: f64,
+    /// Poses in A's window.
     pub a_poses: usize,
+    /// Poses in B's window.
     pub b_poses: usize,
     /// Ground-truth length (m) of the common road.
     pub overlap_m: f64,
@@ -47,6 +52,7 @@ pub struct MergeCase {
     pub overlap_turning_deg: f64,
     /// Rank-1 score, 0 when there is no hypothesis.
     pub rank1_score: f64,
+    /// The rank-1 hypothesis is correct.
     pub rank1_correct: bool,
     /// One of the top 5 is correct.
     pub top5_correct: bool,
@@ -78,11 +84,17 @@ pub struct MergeCase {
 /// One negative pair (no common road) and its rank-1 score.
 #[derive(Debug, Clone, Serialize)]
 pub struct NegativeCase {
+    /// KITTI sequence of A (ground truth).
     pub a_sequence: String,
+    /// KITTI sequence of B, another than A's.
     pub b_sequence: String,
+    /// Source of B.
     pub source: Source,
+    /// B's pose order is reversed.
     pub reversed: bool,
+    /// Rank-1 score, 0 when there is no hypothesis.
     pub rank1_score: f64,
+    /// Wall time (s) of `match_paths`.
     pub seconds: f64,
 }
 
@@ -200,8 +212,9 @@ pub struct CaseRun {
     /// B's poses as the matcher saw them (reversed, under a random
     /// similarity).
     pub b_input: Vec<Vector3<f64>>,
-    /// Scale of that similarity and whether B was reversed.
+    /// Scale of that similarity.
     pub scale: f64,
+    /// B's pose order is reversed.
     pub reversed: bool,
     /// The common road (indices into A's and B's windows).
     pub truth: Overlap,
@@ -217,8 +230,9 @@ pub struct CaseRun {
     /// The matcher's hypotheses, best first, each with its verdict (empty
     /// when the oracle fails: such a case is not run).
     pub hypotheses: Vec<(Hypothesis, MergeVerdict)>,
-    /// Wall time of `match_paths` and its error, if any.
+    /// Wall time (s) of `match_paths`.
     pub seconds: f64,
+    /// `match_paths` failed, with its message.
     pub error: Option<String>,
 }
 

@@ -20,7 +20,9 @@ use super::{Prepared, Source};
 /// Everything one evaluation run measured.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
+    /// The data directory the sequences were read from.
     pub data_dir: String,
+    /// Seed of every random draw.
     pub seed: u64,
     /// Time and space alignment of the KITTI 00 GPS.
     pub gps_alignment: Option<GpsAlignment>,
@@ -28,36 +30,52 @@ pub struct Report {
     pub events: Vec<(String, usize)>,
     /// Sources without data (skipped), e.g. `"02 mono"`.
     pub missing: Vec<String>,
+    /// The merge evaluation (`None`: not run).
     pub merge: Option<MergeReport>,
+    /// The loop evaluation (`None`: not run).
     pub loops: Option<LoopsReport>,
 }
 
 /// Rates of one group of merge cases.
 #[derive(Debug, Clone, Serialize)]
 pub struct MergeRow {
+    /// The group, e.g. `"all"`, `"source mono"`, `"sequence 00"`, `"B reversed"`.
     pub group: String,
+    /// Cases in the group.
     pub cases: usize,
+    /// Cases whose rank-1 hypothesis is correct (%; NaN without cases).
     pub rank1_correct_pct: f64,
+    /// Cases with a correct hypothesis among the top 5 (%).
     pub top5_correct_pct: f64,
     /// Median over correct rank-1 hypotheses.
     pub median_rot_err_deg: f64,
+    /// Median scale error (%) over correct rank-1 hypotheses.
     pub median_scale_err_pct: f64,
 }
 
 /// The merge evaluation.
 #[derive(Debug, Clone, Serialize)]
 pub struct MergeReport {
+    /// Lengths (m) the windows are drawn from.
     pub windows: WindowSpec,
+    /// Rates of all cases, then per source, sequence, overlap kind, turning of
+    /// the common road, shape rival and direction of B.
     pub rows: Vec<MergeRow>,
     /// ROC AUC of rank-1 scores, true pairs against negatives.
     pub auc: f64,
     /// The same over the true pairs without a shape rival.
     pub auc_decidable: f64,
+    /// Median wall time (s) of `match_paths` over the cases and negatives.
     pub median_match_s: f64,
+    /// Mean wall time (s) of `match_paths` over the cases and negatives.
     pub mean_match_s: f64,
+    /// Longest wall time (s) of `match_paths` over the cases and negatives.
     pub max_match_s: f64,
+    /// Cases where `match_paths` failed.
     pub errors: usize,
+    /// Every positive case that was run.
     pub cases: Vec<MergeCase>,
+    /// Every negative pair.
     pub negatives: Vec<NegativeCase>,
     /// Draws skipped because no similarity passes their test.
     pub unattainable: Vec<MergeCase>,
@@ -66,31 +84,46 @@ pub struct MergeReport {
 /// Figures of one method on one group of loop runs.
 #[derive(Debug, Clone, Serialize)]
 pub struct LoopFigures {
+    /// Runs whose best-ranked loop is correct (%).
     pub rank1_correct_pct: f64,
+    /// Ground-truth revisit events touched by a correct top-10 loop, over all
+    /// events of the runs (%).
     pub events_covered_pct: f64,
+    /// Correct loops among those returned (%; NaN when none was returned).
     pub precision_pct: f64,
+    /// Mean wall time per run (s).
     pub mean_s: f64,
 }
 
 /// One row of the loop table: a sequence and source (or a total).
 #[derive(Debug, Clone, Serialize)]
 pub struct LoopRow {
+    /// KITTI sequence, or `"all"`.
     pub sequence: String,
+    /// Source name (`"gt"`, `"mono"`, ...), or `"all"`.
     pub source: String,
+    /// Runs of each method (one per seed).
     pub runs: usize,
+    /// Ground-truth revisit events summed over the runs.
     pub events: usize,
     /// Median over runs of the revisit separation (median input steps).
     pub revisit_separation_steps: f64,
+    /// Figures of `find_loops`.
     pub turnprint: LoopFigures,
+    /// Figures of the naive baseline.
     pub naive: LoopFigures,
 }
 
 /// The loop evaluation.
 #[derive(Debug, Clone, Serialize)]
 pub struct LoopsReport {
+    /// Drift model of the `drift` source.
     pub drift: DriftModel,
+    /// Settings of the naive baseline.
     pub naive: Naive,
+    /// One row per sequence and source, then one per source, then the total.
     pub rows: Vec<LoopRow>,
+    /// Every run, both methods.
     pub runs: Vec<LoopRun>,
 }
 

@@ -19,37 +19,60 @@ pub enum CameraModel {
     /// `m = (x/z, y/z)`, distorted by `k1, k2` (radial) and `p1, p2` (tangential),
     /// then `u = fx m_x + cx`, `v = fy m_y + cy`.
     Pinhole {
+        /// Focal length along x (pixels).
         fx: f64,
+        /// Focal length along y (pixels).
         fy: f64,
+        /// Principal point, u (pixels).
         cx: f64,
+        /// Principal point, v (pixels).
         cy: f64,
+        /// Radial distortion coefficient of r² (r on the normalised plane).
         k1: f64,
+        /// Radial distortion coefficient of r⁴.
         k2: f64,
+        /// First tangential distortion coefficient.
         p1: f64,
+        /// Second tangential distortion coefficient.
         p2: f64,
     },
     /// OpenCV fisheye: `θ = atan2(|(x, y)|, z)`,
     /// `θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)`, `m = θ_d (x, y) / |(x, y)|`.
     /// Using `atan2` keeps the model valid beyond 90° off axis (190° lenses).
     Fisheye {
+        /// Focal length along x (pixels).
         fx: f64,
+        /// Focal length along y (pixels).
         fy: f64,
+        /// Principal point, u (pixels).
         cx: f64,
+        /// Principal point, v (pixels).
         cy: f64,
+        /// Coefficients `k1..k4` of θ², θ⁴, θ⁶, θ⁸ in `θ_d` (θ in radians).
         k: [f64; 4],
     },
     /// Mei unified model: the unit bearing `s` is projected from the point
     /// `(0, 0, -ξ)`: `m = (s_x, s_y) / (s_z + ξ)`, then radial-tangential
     /// distortion and the affine map as for the pinhole.
     Omni {
+        /// Mirror parameter ξ in [0, 1]: the projection centre lies ξ unit-sphere
+        /// radii behind the sphere's centre (0: pinhole).
         xi: f64,
+        /// Focal length along x (pixels).
         fx: f64,
+        /// Focal length along y (pixels).
         fy: f64,
+        /// Principal point, u (pixels).
         cx: f64,
+        /// Principal point, v (pixels).
         cy: f64,
+        /// Radial distortion coefficient of r² (r on the normalised plane).
         k1: f64,
+        /// Radial distortion coefficient of r⁴.
         k2: f64,
+        /// First tangential distortion coefficient.
         p1: f64,
+        /// Second tangential distortion coefficient.
         p2: f64,
     },
 }

@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! Visual verification of loop candidates: camera models, ORB features,
 //! descriptor matching and relative pose on bearing vectors.
 //!

@@ -149,7 +149,12 @@ pub enum PoseOutcome {
     /// A consistent, well-conditioned pose with enough inliers.
     Accepted(RelativePose),
     /// Why no pose was accepted, with the best inlier count seen.
-    Rejected { reason: String, inliers: usize },
+    Rejected {
+        /// Why no pose was accepted.
+        reason: String,
+        /// Inliers of the best model seen (0 when none was fitted).
+        inliers: usize,
+    },
 }
 
 /// SplitMix64: a tiny deterministic generator so verdicts are reproducible.

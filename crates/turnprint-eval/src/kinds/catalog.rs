@@ -90,7 +90,9 @@ impl Session {
 /// with the reason.
 #[derive(Debug, Default)]
 pub struct Catalog {
+    /// Every session read, in reading order.
     pub sessions: Vec<Session>,
+    /// Files left out: path relative to the data folder, and the reason.
     pub skipped: Vec<(String, String)>,
 }
 

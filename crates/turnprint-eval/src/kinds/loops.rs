@@ -67,21 +67,28 @@ impl Input {
 /// One session and input through both methods.
 #[derive(Debug, Clone, Serialize)]
 pub struct LoopRun {
+    /// Kind of the session.
     pub kind: Kind,
+    /// Name of the session.
     pub session: String,
+    /// What the loop search was given.
     pub input: Input,
+    /// Revisit events of the session's truth.
     pub events: usize,
     /// Events a correct top-10 loop touches: turnprint, naive.
     pub covered: [usize; 2],
     /// The best-ranked loop is correct: turnprint, naive.
     pub rank1_correct: [bool; 2],
-    /// Loops returned, correct among them: turnprint, naive.
+    /// Loops returned: turnprint, naive.
     pub returned: [usize; 2],
+    /// Correct loops among them: turnprint, naive.
     pub correct: [usize; 2],
     /// turnprint's loops, best first: the claim, its verdict and the true
     /// median offset between its passes in revisit radii.
     pub loops: Vec<(LoopClaim, bool, f64)>,
+    /// Wall time (s) of `find_loops`.
     pub seconds: f64,
+    /// `find_loops` failed, with its message (counted as no loops).
     pub error: Option<String>,
 }
 

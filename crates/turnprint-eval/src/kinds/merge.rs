@@ -50,38 +50,57 @@ pub enum How {
 /// One positive case and its outcome.
 #[derive(Debug, Clone, Serialize)]
 pub struct MergeCase {
+    /// Kind of B's session, the kind the case counts for.
     pub kind: Kind,
+    /// Name of A's session.
     pub a: String,
+    /// Name of B's session.
     pub b: String,
+    /// How B relates to A.
     pub how: How,
+    /// Poses in A.
     pub a_poses: usize,
+    /// Poses in B after thinning.
     pub b_poses: usize,
+    /// B's pose order is reversed.
     pub reversed: bool,
     /// B keeps every `rate`-th pose.
     pub rate: usize,
+    /// B's poses carry Gaussian noise of 0.1 % of its length.
     pub noised: bool,
+    /// Scale of the random similarity applied to B.
     pub scale: f64,
     /// Common road length over B's length.
     pub common_share: f64,
+    /// Rank-1 score, 0 when there is no hypothesis.
     pub rank1_score: f64,
+    /// The rank-1 hypothesis is correct.
     pub rank1_correct: bool,
+    /// One of the top 5 is correct.
     pub top5_correct: bool,
     /// Rank-1's median error over the common length.
     pub rank1_error: Option<f64>,
     /// Rank-1 is wrong and its rotation is more than 135° from the truth's:
     /// the layout laid on itself turned over (a symmetric look-alike).
     pub rank1_flipped: bool,
+    /// Wall time (s) of `match_paths`.
     pub seconds: f64,
+    /// `match_paths` failed, with its message (counted as no hypothesis).
     pub error: Option<String>,
 }
 
 /// One negative pair: A and B share no road.
 #[derive(Debug, Clone, Serialize)]
 pub struct Negative {
+    /// Kind of A's session.
     pub a_kind: Kind,
+    /// Kind of B's session, another than A's.
     pub b_kind: Kind,
+    /// Name of A's session.
     pub a: String,
+    /// Name of B's session.
     pub b: String,
+    /// Rank-1 score, 0 when there is no hypothesis or `match_paths` failed.
     pub rank1_score: f64,
 }
 

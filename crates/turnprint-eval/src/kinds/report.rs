@@ -15,15 +15,19 @@ use crate::auc::roc_auc;
 /// Everything one run of the evaluation produced.
 #[derive(Debug, Default, Serialize)]
 pub struct KindsReport {
+    /// Seed of every draw.
     pub seed: u64,
     /// Sessions read per kind.
     pub sessions: Vec<(Kind, usize)>,
     /// Files left out, with the reason.
     pub skipped: Vec<(String, String)>,
+    /// Every positive merge case that was run.
     pub cases: Vec<MergeCase>,
     /// Draws no single similarity passes, per kind and how.
     pub unattainable: Vec<(Kind, How)>,
+    /// Every negative pair.
     pub negatives: Vec<Negative>,
+    /// Every loop run, both methods in each.
     pub loops: Vec<LoopRun>,
 }
 
