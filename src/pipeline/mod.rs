@@ -9,6 +9,7 @@
 
 pub mod config;
 pub mod merge;
+pub mod placement;
 pub mod prepare;
 pub mod proximity;
 pub mod rank;
@@ -17,6 +18,7 @@ pub mod verify;
 
 pub use config::Config;
 pub use merge::merge;
+pub use placement::{merge_many, Placement};
 pub use prepare::PreparedPath;
 pub use verify::Verified;
 

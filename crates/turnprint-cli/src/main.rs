@@ -9,6 +9,7 @@ use std::time::Duration;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::json;
+use turnprint::geometry::Similarity3;
 use turnprint::io::{write_tum, Format};
 use turnprint::pipeline::{self, PreparedPath};
 use turnprint::{Config, Hypothesis, Trajectory};
@@ -106,26 +107,31 @@ enum Command {
         #[arg(long, default_value = "auto", value_parser = group)]
         group: turnprint::correct::Group,
     },
-    /// Writes A and B (mapped into A's frame by the best hypothesis) as one TUM file.
+    /// Writes the paths placed in the first one's frame as one TUM file: two
+    /// by their best hypothesis, more each through the overlaps that place it.
     Merge {
-        /// Path A (the reference frame); `-` reads it from stdin.
-        a: PathBuf,
-        /// Path B; `-` reads it from stdin.
-        b: PathBuf,
+        /// The paths, the first the reference frame; `-` reads one from stdin.
+        #[arg(required = true, num_args = 2..)]
+        paths: Vec<PathBuf>,
         /// Output TUM file.
         #[arg(short, long)]
         output: PathBuf,
-        /// Also draw both paths and the common part (SVG or PNG by extension).
+        /// Print one JSON object (cli.md): each path's similarity into the
+        /// first one's frame, or that it was not merged.
+        #[arg(long)]
+        json: bool,
+        /// Also draw both paths and the common part (SVG or PNG by
+        /// extension; two paths).
         #[arg(long)]
         plot: Option<PathBuf>,
-        /// Input format of both files.
+        /// Input format of the files.
         #[arg(long, default_value = "auto")]
         format: Format,
-        /// Input format of B, when it differs from A's.
+        /// Input format of the second path, when it differs (two paths).
         #[arg(long)]
         format_b: Option<Format>,
         /// Write nothing and fail when the best hypothesis scores below this
-        /// (0..1); 0 merges whatever ranks first.
+        /// (0..1; two paths); 0 merges whatever ranks first.
         #[arg(long, default_value_t = 0.0, value_parser = score_in_unit_interval)]
         min_score: f64,
     },
@@ -244,21 +250,25 @@ fn main() -> ExitCode {
             group,
         ),
         Command::Merge {
-            a,
-            b,
+            paths,
             output,
+            json,
             plot,
             format,
             format_b,
             min_score,
-        } => run_merge(
-            &a,
-            &b,
-            &output,
-            plot.as_deref(),
-            (format, format_b.unwrap_or(format)),
-            min_score,
-        ),
+        } => match paths.as_slice() {
+            [a, b] => run_merge(
+                a,
+                b,
+                &output,
+                json,
+                plot.as_deref(),
+                (format, format_b.unwrap_or(format)),
+                min_score,
+            ),
+            _ => run_merge_many(&paths, &output, json, plot.as_deref(), format, min_score),
+        },
         Command::Stream {
             a,
             json,
@@ -597,6 +607,7 @@ fn run_merge(
     a: &Path,
     b: &Path,
     output: &Path,
+    json: bool,
     plot: Option<&Path>,
     (fa, fb): (Format, Format),
     min_score: f64,
@@ -644,7 +655,125 @@ fn run_merge(
             best.score
         );
     }
+    if json {
+        let frames = [Some(Similarity3::identity()), Some(best.similarity())];
+        print_json(&placement_json(
+            &[a, b],
+            &[&ta, &tb],
+            &frames,
+            &[None, Some(0)],
+        ))?;
+    }
     Ok(())
+}
+
+/// `merge` of more than two paths: each placed in the first one's frame
+/// through the overlaps that place it ([`pipeline::merge_many`]).
+fn run_merge_many(
+    paths: &[PathBuf],
+    output: &Path,
+    json: bool,
+    plot: Option<&Path>,
+    format: Format,
+    min_score: f64,
+) -> Result<(), Failure> {
+    if plot.is_some() || min_score > 0.0 {
+        return Err(
+            "--plot and --min-score take two paths; with more, merge reports \
+                    what it placed and through which overlap"
+                .into(),
+        );
+    }
+    if paths
+        .iter()
+        .filter(|p| p.as_path() == Path::new("-"))
+        .count()
+        > 1
+    {
+        return Err("at most one path can be stdin (-)".into());
+    }
+    let progress = Progress::new();
+    progress.stage("reading");
+    let trajectories = paths
+        .iter()
+        .map(|p| read(p, format))
+        .collect::<Result<Vec<_>, _>>()?;
+    progress.stage("matching every pair");
+    let placement =
+        pipeline::merge_many(&trajectories, &Config::for_matching()).map_err(|e| e.to_string())?;
+    let mut poses = Vec::new();
+    for (t, frame) in trajectories.iter().zip(&placement.frames) {
+        if let Some(frame) = frame {
+            poses.extend(pipeline::merge::placed(t, frame).poses);
+        }
+    }
+    let merged = Trajectory {
+        source: "merged".into(),
+        poses,
+    };
+    write_tum(output, &merged).map_err(|e| e.to_string())?;
+    let placed = placement.frames.iter().filter(|f| f.is_some()).count();
+    eprintln!(
+        "placed {placed} of {} paths in the frame of {} ({} poses into {}); overlaps used {}, \
+         contradicted {}",
+        paths.len(),
+        paths[0].display(),
+        merged.len(),
+        output.display(),
+        placement.used.len(),
+        placement.contradicted.len()
+    );
+    for (p, f) in paths.iter().zip(&placement.frames) {
+        if f.is_none() {
+            eprintln!(
+                "not merged: {} overlaps none of the placed paths",
+                p.display()
+            );
+        }
+    }
+    if json {
+        let names: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
+        let refs: Vec<&Trajectory> = trajectories.iter().collect();
+        print_json(&placement_json(
+            &names,
+            &refs,
+            &placement.frames,
+            &placement.via,
+        ))?;
+    }
+    Ok(())
+}
+
+/// The `merge --json` object (cli.md): per path, in input order, its
+/// similarity into the first path's frame and the path it was placed
+/// through, or `"merged": false`.
+fn placement_json(
+    names: &[&Path],
+    paths: &[&Trajectory],
+    frames: &[Option<Similarity3>],
+    via: &[Option<usize>],
+) -> serde_json::Value {
+    let entries: Vec<_> = (0..names.len())
+        .map(|k| {
+            let (name, poses) = (names[k].display().to_string(), paths[k].len());
+            match &frames[k] {
+                None => json!({"path": name, "poses": poses, "merged": false}),
+                Some(f) => {
+                    let r = f.rotation;
+                    let mut entry = json!({
+                        "path": name, "poses": poses, "merged": true, "scale": f.scale,
+                        "rotation": (0..3).map(|i| [r[(i, 0)], r[(i, 1)], r[(i, 2)]]).collect::<Vec<_>>(),
+                        "translation": [f.translation.x, f.translation.y, f.translation.z],
+                    });
+                    if let Some(v) = via[k] {
+                        entry["via"] = json!(names[v].display().to_string());
+                    }
+                    entry
+                }
+            }
+        })
+        .collect();
+    json!({ "paths": entries })
 }
 
 fn print_json(value: &serde_json::Value) -> Result<(), Failure> {

@@ -597,3 +597,87 @@ fn a_score_threshold_outside_0_to_1_is_refused() {
         );
     }
 }
+
+/// `merge P1 P2 P3 ...`: four GPS tracks of one walk (three devices up,
+/// one down; each GPX file in a frame of its own, so the true similarity is
+/// a translation) are placed into the first one's frame, and a KITTI drive
+/// that shares none of their road is reported as not merged.
+#[test]
+fn merge_of_many_paths_places_the_walks_and_leaves_the_drive_out() {
+    let walk = |name: &str| data(&format!("multisession/gpx_same_route/routage/{name}.gpx"));
+    let (Some(up), Some(slow), Some(suunto), Some(down), Some(drive)) = (
+        walk("Guichet_asc_strava"),
+        walk("Guichet_asc_strava_slow"),
+        walk("Guichet_asc_suunto"),
+        walk("Guichet_dsc_strava"),
+        data("kitti_gt/00.txt"),
+    ) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out_tum = dir.path().join("merged.tum");
+    let out = turnprint_ok(&[
+        "merge",
+        &up,
+        &slow,
+        &drive,
+        &suunto,
+        &down,
+        "-o",
+        out_tum.to_str().unwrap(),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let paths = v["paths"].as_array().unwrap();
+    assert_eq!(paths.len(), 5);
+    let mut blocks = Vec::new();
+    for (k, p) in paths.iter().enumerate() {
+        let merged = p["merged"].as_bool().unwrap();
+        if k == 2 {
+            assert!(!merged, "the drive was placed: {p}");
+            assert!(p.get("scale").is_none());
+            continue;
+        }
+        assert!(merged, "walk {k} not placed: {p}");
+        blocks.push(p["poses"].as_u64().unwrap() as usize);
+        // Measured: scales 0.9966-1.0013.
+        let scale = p["scale"].as_f64().unwrap();
+        assert!((scale - 1.0).abs() < 0.02, "walk {k}: scale {scale}");
+        if k > 0 {
+            assert!(p["via"].is_string(), "{p}");
+        }
+    }
+    let merged = turnprint::io::read_trajectory(&out_tum, turnprint::io::Format::Tum).unwrap();
+    assert_eq!(
+        merged.len(),
+        blocks.iter().sum::<usize>(),
+        "the drive left out"
+    );
+    // Each placed walk lies on the first: median distance to its nearest
+    // pose within 2 % of the first walk's extent.
+    let first: Vec<_> = merged.poses[..blocks[0]]
+        .iter()
+        .map(|p| p.position)
+        .collect();
+    let (lo, hi) = first
+        .iter()
+        .fold((first[0], first[0]), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
+    let extent = (hi - lo).norm();
+    let mut start = blocks[0];
+    for (k, &n) in blocks.iter().enumerate().skip(1) {
+        let mut d: Vec<f64> = merged.poses[start..start + n]
+            .iter()
+            .map(|p| {
+                first
+                    .iter()
+                    .map(|q| (q - p.position).norm())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect();
+        d.sort_by(f64::total_cmp);
+        let median = d[d.len() / 2];
+        eprintln!("walk {k}: {median:.1} m from the first walk (extent {extent:.0} m)");
+        assert!(median < 0.02 * extent, "walk {k}: {median} m off");
+        start += n;
+    }
+}

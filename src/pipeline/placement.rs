@@ -1,0 +1,305 @@
+//! Many paths into one frame: every pair matched, each best overlap an edge
+//! of a graph of paths, and every path placed in the first path's frame
+//! through the strongest overlap whose placement the path's other overlaps
+//! with placed paths do not contradict (a wrong pairwise merge disagrees
+//! with the cycles it closes). A path that overlaps no placed path is left
+//! out, never forced.
+//!
+//! With `first_T_u` the placement of a placed path `u` and `u_T_v` an
+//! overlap's similarity (`p_u = s R p_v + t`), path `v` is placed at
+//! `first_T_v = first_T_u · u_T_v`.
+
+use nalgebra::Vector3;
+
+use super::{match_across_rates, Config, PreparedPath};
+use crate::geometry::Similarity3;
+use crate::{Hypothesis, Result, Trajectory};
+
+/// Weakest best score that makes an overlap an edge. Over every kind of
+/// path (`evaluate_kinds`, seed 1) 94 % of the pairs with no common road
+/// rank-1 below it, and 94 % of the correct rank-1 overlaps above.
+pub const MIN_OVERLAP_SCORE: f64 = 0.1;
+
+/// Best score that places a path through one overlap alone; a weaker one
+/// places it only when another overlap with a placed path agrees. None of
+/// the 240 pairs with no common road (`evaluate_kinds`, seed 1) reaches it,
+/// 86 % of the correct rank-1 overlaps do. Matched against many others, a
+/// stranger meets a look-alike between the two scores now and then (one
+/// pair in twenty), and a stranger once placed would place more.
+pub const STRONG_OVERLAP_SCORE: f64 = 0.2;
+
+/// Two placements of one path agree when its poses land within this
+/// fraction of the path's placed extent of each other (median): errors of
+/// a chain of overlaps add up, a wrong overlap misplaces a path by about
+/// its own size.
+pub const AGREEMENT: f64 = 0.05;
+
+/// The best overlap of two paths: `hypothesis` maps path `b` into path
+/// `a`'s frame.
+#[derive(Debug, Clone)]
+pub struct Overlap {
+    /// Index of the reference path.
+    pub a: usize,
+    /// Index of the path mapped into `a`'s frame.
+    pub b: usize,
+    /// The best hypothesis of the pair.
+    pub hypothesis: Hypothesis,
+}
+
+impl Overlap {
+    /// `from_T_to` of the overlap seen from path `from` (one of its ends).
+    fn seen_from(&self, from: usize) -> Similarity3 {
+        let a_t_b = self.hypothesis.similarity();
+        if from == self.a {
+            a_t_b
+        } else {
+            a_t_b.inverse()
+        }
+    }
+
+    /// The other end of the overlap.
+    fn other(&self, end: usize) -> usize {
+        if end == self.a {
+            self.b
+        } else {
+            self.a
+        }
+    }
+}
+
+/// Where each path sits in the first path's frame.
+#[derive(Debug, Clone)]
+pub struct Placement {
+    /// Per path, `first_T_path` (`p_first = s R p + t`), `None` when the
+    /// path overlaps none of the placed paths.
+    pub frames: Vec<Option<Similarity3>>,
+    /// Per placed path other than the first, the path it was placed
+    /// through.
+    pub via: Vec<Option<usize>>,
+    /// The overlaps that placed a path, in the order they did.
+    pub used: Vec<Overlap>,
+    /// Overlaps whose placement contradicted the one chosen.
+    pub contradicted: Vec<Overlap>,
+}
+
+/// Places every path of `paths` in the frame of the first (see the module
+/// doc). Fails when a path cannot be prepared (too short, no motion).
+pub fn merge_many(paths: &[Trajectory], config: &Config) -> Result<Placement> {
+    let prepared = paths
+        .iter()
+        .map(|p| PreparedPath::new(p, config))
+        .collect::<Result<Vec<_>>>()?;
+    let mut edges = Vec::new();
+    for a in 0..paths.len() {
+        for b in a + 1..paths.len() {
+            let best = match_across_rates(&paths[a], &paths[b], &prepared[a], &prepared[b], config)
+                .into_iter()
+                .next();
+            if let Some(hypothesis) = best.filter(|h| h.score >= MIN_OVERLAP_SCORE) {
+                edges.push(Overlap { a, b, hypothesis });
+            }
+        }
+    }
+    Ok(place(paths, edges))
+}
+
+/// The placement through `edges` (see the module doc): strongest first,
+/// each checked against the path's other overlaps with placed paths.
+fn place(paths: &[Trajectory], mut edges: Vec<Overlap>) -> Placement {
+    let n = paths.len();
+    let mut placement = Placement {
+        frames: vec![None; n],
+        via: vec![None; n],
+        used: Vec::new(),
+        contradicted: Vec::new(),
+    };
+    if n == 0 {
+        return placement;
+    }
+    placement.frames[0] = Some(Similarity3::identity());
+    edges.sort_by(|x, y| y.hypothesis.score.total_cmp(&x.hypothesis.score));
+    let frame_through = |frames: &[Option<Similarity3>], e: &Overlap, v: usize| {
+        let u = e.other(v);
+        frames[u]
+            .as_ref()
+            .map(|first_t_u| first_t_u.compose(&e.seen_from(u)))
+    };
+    // Weak overlaps not yet corroborated, looked at again once another
+    // path is placed.
+    let mut deferred: Vec<Overlap> = Vec::new();
+    // Each round, the strongest overlap between a placed and an unplaced path.
+    while let Some(k) = edges
+        .iter()
+        .position(|e| placement.frames[e.a].is_some() != placement.frames[e.b].is_some())
+    {
+        let e = edges.remove(k);
+        let v = if placement.frames[e.a].is_none() {
+            e.a
+        } else {
+            e.b
+        };
+        let Some(first_t_v) = frame_through(&placement.frames, &e, v) else {
+            continue;
+        };
+        // The path's other overlaps with placed paths, each a placement
+        // of its own: the strongest is kept unless more of them disagree
+        // with it than agree.
+        let points = sample(&paths[v]);
+        let (mut agree, mut disagree) = (Vec::new(), Vec::new());
+        for (i, other) in edges.iter().enumerate() {
+            if other.a != v && other.b != v {
+                continue;
+            }
+            if let Some(alt) = frame_through(&placement.frames, other, v) {
+                if agrees(&points, &first_t_v, &alt) {
+                    agree.push(i);
+                } else {
+                    disagree.push(i);
+                }
+            }
+        }
+        if disagree.len() > agree.len() {
+            placement.contradicted.push(e);
+            continue;
+        }
+        if e.hypothesis.score < STRONG_OVERLAP_SCORE && agree.is_empty() {
+            deferred.push(e);
+            continue;
+        }
+        // The overlaps that agree are used up; those that disagree are wrong.
+        let mut gone: Vec<usize> = agree.iter().chain(&disagree).copied().collect();
+        gone.sort_unstable();
+        for &i in gone.iter().rev() {
+            let other = edges.remove(i);
+            if disagree.contains(&i) {
+                placement.contradicted.push(other);
+            }
+        }
+        placement.via[v] = Some(e.other(v));
+        placement.frames[v] = Some(first_t_v);
+        placement.used.push(e);
+        edges.append(&mut deferred);
+        edges.sort_by(|x, y| y.hypothesis.score.total_cmp(&x.hypothesis.score));
+    }
+    placement
+}
+
+/// Most poses of a path compared between two placements.
+const SAMPLES: usize = 200;
+
+/// Up to [`SAMPLES`] poses of `path`, evenly spread.
+fn sample(path: &Trajectory) -> Vec<Vector3<f64>> {
+    let step = path.len().div_ceil(SAMPLES).max(1);
+    path.poses
+        .iter()
+        .step_by(step)
+        .map(|p| p.position)
+        .collect()
+}
+
+/// Whether two placements of `points` agree (see [`AGREEMENT`]).
+fn agrees(points: &[Vector3<f64>], x: &Similarity3, y: &Similarity3) -> bool {
+    if points.is_empty() {
+        return true;
+    }
+    let placed: Vec<Vector3<f64>> = points.iter().map(|p| x.apply(p)).collect();
+    let (lo, hi) = placed
+        .iter()
+        .fold((placed[0], placed[0]), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
+    let extent = (hi - lo).norm();
+    let mut d: Vec<f64> = points
+        .iter()
+        .zip(&placed)
+        .map(|(p, q)| (y.apply(p) - q).norm())
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2] <= AGREEMENT * extent
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Rotation3;
+
+    /// `positions` under `p -> s R p + t`.
+    fn moved(positions: &[Vector3<f64>], s: f64, angle: f64, t: Vector3<f64>) -> Vec<Vector3<f64>> {
+        let r = Rotation3::from_axis_angle(&Vector3::z_axis(), angle);
+        positions.iter().map(|p| s * (r * p) + t).collect()
+    }
+
+    /// Median distance between `truth` and `positions` placed by `frame`.
+    fn placed_error(
+        frame: &Similarity3,
+        positions: &[Vector3<f64>],
+        truth: &[Vector3<f64>],
+    ) -> f64 {
+        let mut d: Vec<f64> = positions
+            .iter()
+            .zip(truth)
+            .map(|(p, q)| (frame.apply(p) - q).norm())
+            .collect();
+        d.sort_by(f64::total_cmp);
+        d[d.len() / 2]
+    }
+
+    /// A path of `n` unit steps turning by a piecewise constant curvature
+    /// (up to 0.05 rad per step, changed every 30-90 steps), from `seed`.
+    fn wander(seed: u64, n: usize) -> Vec<Vector3<f64>> {
+        let mut state = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut p, mut heading, mut turn, mut left) = (Vector3::zeros(), 0.0, 0.0, 0);
+        (0..n)
+            .map(|_| {
+                if left == 0 {
+                    turn = 0.1 * (next() - 0.5);
+                    left = 30 + (60.0 * next()) as usize;
+                }
+                left -= 1;
+                heading += turn;
+                p += Vector3::new(f64::cos(heading), f64::sin(heading), 0.0);
+                p
+            })
+            .collect()
+    }
+
+    /// Three windows of one path in three frames, the third sharing no
+    /// road with the first, and ten paths of their own: the windows are
+    /// placed (the third through the second), the strangers are left out.
+    #[test]
+    fn a_chain_of_windows_is_placed_through_its_links_and_strangers_are_left_out() {
+        let drive = wander(7, 6000);
+        let windows = [0..2400, 1800..4200, 3600..6000];
+        let moves = [
+            (1.0, 0.0, Vector3::zeros()),
+            (0.05, 1.1, Vector3::new(3.0, -2.0, 0.0)),
+            (20.0, -2.5, Vector3::new(-500.0, 90.0, 0.0)),
+        ];
+        let mut paths: Vec<Trajectory> = windows
+            .iter()
+            .zip(&moves)
+            .map(|(w, &(s, a, t))| {
+                Trajectory::from_positions("w", &moved(&drive[w.clone()], s, a, t))
+            })
+            .collect();
+        for seed in 100..110 {
+            paths.push(Trajectory::from_positions("stranger", &wander(seed, 2400)));
+        }
+        let placement = merge_many(&paths, &Config::for_matching()).expect("placement");
+        for (k, w) in windows.iter().enumerate() {
+            let frame = placement.frames[k]
+                .as_ref()
+                .unwrap_or_else(|| panic!("{k} not placed"));
+            let err = placed_error(frame, &paths[k].positions(), &drive[w.clone()]);
+            // 2 % of a window of 2400 units.
+            assert!(err < 48.0, "window {k} placed {err} units off");
+        }
+        assert_eq!(placement.via[..3], [None, Some(0), Some(1)]);
+        let strangers = placement.frames[3..].iter().filter(|f| f.is_some()).count();
+        assert_eq!(strangers, 0, "strangers placed");
+    }
+}
