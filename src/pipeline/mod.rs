@@ -7,6 +7,7 @@
 //! score, rank (de-duplicate, top k)
 //! ```
 
+pub mod alike;
 pub mod config;
 pub mod merge;
 pub mod placement;
@@ -84,6 +85,10 @@ pub fn match_across_rates(
     let mut all = match_prepared(pa, pb, config);
     // The denser one thinned to the other's rate, where they differ.
     all.extend(match_thinned(a, b, pa, pb, config));
+    // Nothing convincing: each smoothed wider, where that makes them alike.
+    if all.iter().all(|h| h.score < alike::ALIKE_BELOW_SCORE) {
+        all.extend(alike::match_smoothed_alike(a, b, pa, pb, config));
+    }
     let ranked = rank::rank(all, config.top_k, config.min_score, Duplicates::Alignment);
     // The reported similarities, refined on the raw poses.
     polished(&pa.positions, &pb.positions, ranked)

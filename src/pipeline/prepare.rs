@@ -35,6 +35,24 @@ pub struct PreparedPath {
 impl PreparedPath {
     /// Runs plane fit, track, signature and segmentation.
     pub fn new(trajectory: &Trajectory, config: &Config) -> Result<PreparedPath> {
+        Self::smoothed(trajectory, config, None)
+    }
+
+    /// [`PreparedPath::new`] with the smoothing bandwidth given (units of
+    /// the path) instead of chosen from its poses.
+    pub fn with_bandwidth(
+        trajectory: &Trajectory,
+        config: &Config,
+        bandwidth: f64,
+    ) -> Result<PreparedPath> {
+        Self::smoothed(trajectory, config, Some(bandwidth))
+    }
+
+    fn smoothed(
+        trajectory: &Trajectory,
+        config: &Config,
+        bandwidth: Option<f64>,
+    ) -> Result<PreparedPath> {
         let name = &trajectory.source;
         let n = trajectory.len();
         if n < MIN_POSES {
@@ -56,7 +74,12 @@ impl PreparedPath {
         let positions = trajectory.positions();
         let plane = Plane::fit(&positions);
         let points: Vec<Vector2<f64>> = positions.iter().map(|p| plane.to_2d(p)).collect();
-        let track = Track::build(&points).ok_or_else(|| {
+        let track = match bandwidth {
+            None => Track::build(&points),
+            Some(bandwidth) => crate::track::ChordParam::new(&points)
+                .map(|chord| Track::from_smoother(&chord, &crate::track::Smoother { bandwidth })),
+        }
+        .ok_or_else(|| {
             Error::input(
                 name,
                 "the path does not move (fewer than 3 distinct positions)",

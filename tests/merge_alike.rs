@@ -1,0 +1,71 @@
+//! Records of one walk by different apps: each smooths its own way (GCV in
+//! its own pose spacings, widened while its turning falls like wobble), and
+//! their bandwidths end up several times apart in metres. The first match
+//! then finds only look-alikes; matched again smoothed alike
+//! (`pipeline::alike`), the walk is placed.
+
+mod common;
+
+use nalgebra::{Rotation3, Vector3};
+use turnprint::pipeline::{match_paths, Config};
+use turnprint::Trajectory;
+use turnprint_eval::kinds::catalog::catalog;
+
+#[test]
+fn two_apps_on_one_walk_smoothed_apart_were_placed_by_a_look_alike() {
+    let Some(dir) = common::shared_dir(&[
+        "multisession/gpx_same_route/routage/Guichet_asc_orux.gpx",
+        "multisession/gpx_same_route/routage/Guichet_asc_suunto.gpx",
+    ]) else {
+        return;
+    };
+    let sessions = catalog(&dir).sessions;
+    let find = |name: &str| {
+        sessions
+            .iter()
+            .find(|s| s.name == name)
+            .unwrap_or_else(|| panic!("{name} in the catalog"))
+    };
+    let (a, b) = (
+        find("routage Guichet_asc_orux"),
+        find("routage Guichet_asc_suunto"),
+    );
+    // B: every second point of the other app, backwards, 1/50 the size and
+    // turned (`b_T_world`); A: the first app's track as it is.
+    let scale = 0.02;
+    let b_r_world = Rotation3::from_euler_angles(0.4, -0.3, 2.0);
+    let b_points: Vec<Vector3<f64>> = b.input.iter().step_by(2).rev().copied().collect();
+    let b_truth: Vec<Vector3<f64>> = b.truth.iter().step_by(2).rev().copied().collect();
+    let disguised: Vec<Vector3<f64>> = b_points
+        .iter()
+        .map(|p| scale * (b_r_world * p) + Vector3::new(3.0, -1.0, 0.5))
+        .collect();
+    let hypotheses = match_paths(
+        &Trajectory::from_positions("orux", &a.truth),
+        &Trajectory::from_positions("suunto", &disguised),
+        &Config::for_matching(),
+    )
+    .expect("matches");
+    let best = hypotheses.first().expect("a hypothesis");
+    // Right: the disguise undone (scale and turn) and B's points where the
+    // other app put them, within 2 % of B's length (median).
+    let length: f64 = b_truth.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    let mut errors: Vec<f64> = disguised
+        .iter()
+        .zip(&b_truth)
+        .map(|(p, truth)| (best.transform(p) - truth).norm())
+        .collect();
+    errors.sort_by(f64::total_cmp);
+    let median = errors[errors.len() / 2];
+    assert!(
+        (best.scale * scale - 1.0).abs() < 0.05,
+        "scale {} (true {})",
+        best.scale,
+        1.0 / scale
+    );
+    assert!(
+        median < 0.02 * length,
+        "median error {median:.1} m over a walk of {length:.0} m (score {:.3})",
+        best.score
+    );
+}
