@@ -1,0 +1,480 @@
+//! `turnprint stream --fleet`: robots as real `turnprint` processes talking
+//! Zenoh on loopback with explicit endpoints (multicast scouting off).
+//! Windows of one generated drive, each under a known random similarity,
+//! are robots that share road; another drive is a stranger. Faults: a robot
+//! that joins after the others have driven, one killed with `kill -9` and
+//! restarted, a peer that sends garbage and a newer payload version.
+//!
+//! The tests run one at a time (each starts several processes on a
+//! two-core machine) and wait by polling with generous deadlines, never
+//! on a sleep that assumes a speed.
+
+mod common;
+
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use nalgebra::Vector3;
+use serde_json::Value;
+use turnprint::geometry::Similarity3;
+use turnprint_fleet::fixture::{curvy_drive, random_similarity, tum, Lcg};
+
+/// One fleet test at a time.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+/// Longest a robot process may take: far above the few seconds each needs.
+const DEADLINE: Duration = Duration::from_secs(50);
+
+/// Largest error of a placement, as a fraction of the common length.
+const MAX_ERROR: f64 = 0.03;
+
+/// A truth pose of another robot counts as shared road when it lies this
+/// close to the robot's own truth path (units of the drive: one pose per
+/// unit, lateral noise a few hundredths).
+const SHARE_RADIUS: f64 = 2.0;
+
+/// Shortest common road (units) for a pair to count as sharing road.
+const MIN_COMMON: f64 = 100.0;
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A port free now on loopback.
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free port")
+        .port()
+}
+
+fn endpoint(port: u16) -> String {
+    format!("tcp/127.0.0.1:{port}")
+}
+
+/// A robot of a test: its truth (drive frame) and its path file (its own
+/// frame, `frame` applied to the truth).
+struct Robot {
+    name: String,
+    truth: Vec<Vector3<f64>>,
+    frame: Similarity3,
+    file: PathBuf,
+}
+
+impl Robot {
+    fn new(dir: &Path, name: &str, truth: Vec<Vector3<f64>>, rng: &mut Lcg) -> Robot {
+        let frame = random_similarity(rng);
+        let points: Vec<_> = truth.iter().map(|p| frame.apply(p)).collect();
+        let file = dir.join(format!("{name}.tum"));
+        std::fs::write(&file, tum(&points)).expect("writing a path");
+        Robot {
+            name: name.into(),
+            truth,
+            frame,
+            file,
+        }
+    }
+}
+
+/// A running robot process, its output going to a file.
+struct Running {
+    child: Child,
+    out: PathBuf,
+    err: PathBuf,
+}
+
+fn start(
+    dir: &Path,
+    fleet: &str,
+    robot: &Robot,
+    listen: u16,
+    connect: &[u16],
+    rate: f64,
+    linger: f64,
+    tag: &str,
+) -> Running {
+    let out = dir.join(format!("{}{tag}.out", robot.name));
+    let err = dir.join(format!("{}{tag}.err", robot.name));
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_turnprint"));
+    cmd.args(["stream", robot.file.to_str().expect("utf-8"), "--json"])
+        .args(["--fleet", fleet, "--robot", &robot.name])
+        .args(["--listen", &endpoint(listen)])
+        .args(["--rate", &rate.to_string(), "--linger", &linger.to_string()]);
+    for p in connect {
+        cmd.args(["--connect", &endpoint(*p)]);
+    }
+    let child = cmd
+        .stdout(std::fs::File::create(&out).expect("stdout file"))
+        .stderr(std::fs::File::create(&err).expect("stderr file"))
+        .stdin(Stdio::null())
+        .spawn()
+        .expect("starting turnprint");
+    Running { child, out, err }
+}
+
+impl Running {
+    /// Waits for the process to end well; returns its summary.
+    fn summary(mut self) -> Value {
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(s) = self.child.try_wait().expect("waiting") {
+                break s;
+            }
+            if t0.elapsed() > DEADLINE {
+                let _ = self.child.kill();
+                panic!("a robot ran past {DEADLINE:?}: {}", self.stderr());
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        assert!(status.success(), "{status}: {}", self.stderr());
+        let text = std::fs::read_to_string(&self.out).expect("stdout");
+        let last = text.lines().last().expect("a summary line");
+        let v: Value = serde_json::from_str(last).expect("JSON");
+        assert_eq!(v["event"], "summary", "{last}");
+        // Every line is JSON; cross-robot candidates name their robot.
+        for line in text.lines() {
+            let e: Value = serde_json::from_str(line).expect("JSON line");
+            if e["event"] == "candidate" && e.get("robot").is_some() {
+                assert!(e["query_range"][0].as_u64() <= e["query_range"][1].as_u64());
+            }
+        }
+        v
+    }
+
+    fn stderr(&self) -> String {
+        std::fs::read_to_string(&self.err).unwrap_or_default()
+    }
+}
+
+/// The similarity in a summary's `robots` entry.
+fn similarity(v: &Value) -> Option<Similarity3> {
+    if v["merged"] != true {
+        return None;
+    }
+    let f = |v: &Value| v.as_f64().expect("a number");
+    let r = &v["rotation"];
+    let t = &v["translation"];
+    Some(Similarity3 {
+        scale: f(&v["scale"]),
+        rotation: nalgebra::Matrix3::from_fn(|i, j| f(&r[i][j])),
+        translation: Vector3::new(f(&t[0]), f(&t[1]), f(&t[2])),
+    })
+}
+
+/// The common road of `other` with `own` (truth poses of `other` near
+/// `own`'s path) and its length.
+fn common(own: &Robot, other: &Robot) -> (Vec<Vector3<f64>>, f64) {
+    let near = |p: &Vector3<f64>| own.truth.iter().any(|q| (p - q).norm() < SHARE_RADIUS);
+    let shared: Vec<bool> = other.truth.iter().map(near).collect();
+    let mut length = 0.0;
+    for i in 1..other.truth.len() {
+        if shared[i] && shared[i - 1] {
+            length += (other.truth[i] - other.truth[i - 1]).norm();
+        }
+    }
+    let points = other
+        .truth
+        .iter()
+        .zip(&shared)
+        .filter(|(_, s)| **s)
+        .map(|(p, _)| *p)
+        .collect();
+    (points, length)
+}
+
+/// How `own`'s summary placed `other`: `Ok(error)` as a fraction of the
+/// common length when they share road, `Err` for a stranger (`true`: left
+/// out).
+fn placement(summary: &Value, own: &Robot, other: &Robot) -> Result<f64, bool> {
+    let entry = &summary["robots"][&other.name];
+    let estimate = similarity(entry);
+    let (points, length) = common(own, other);
+    if length < MIN_COMMON {
+        return Err(estimate.is_none());
+    }
+    let Some(est) = estimate else {
+        return Ok(f64::INFINITY);
+    };
+    // own_T_other = own.frame * other.frame^-1, on other's coordinates.
+    let truth = own.frame.compose(&other.frame.inverse());
+    let mut d: Vec<f64> = points
+        .iter()
+        .map(|p| {
+            let q = other.frame.apply(p);
+            (est.apply(&q) - truth.apply(&q)).norm()
+        })
+        .collect();
+    d.sort_by(f64::total_cmp);
+    Ok(d[d.len() / 2] / (length * own.frame.scale))
+}
+
+/// Checks every ordered pair: shared road placed within [`MAX_ERROR`],
+/// strangers left out.
+fn check(robots: &[&Robot], summaries: &[&Value]) {
+    for (own, s) in robots.iter().zip(summaries) {
+        for other in robots {
+            if other.name == own.name {
+                continue;
+            }
+            match placement(s, own, other) {
+                Ok(e) => assert!(
+                    e < MAX_ERROR,
+                    "{} placed {} {e} of the common length off: {}",
+                    own.name,
+                    other.name,
+                    s["robots"]
+                ),
+                Err(left_out) => assert!(
+                    left_out,
+                    "{} merged {}, a stranger: {}",
+                    own.name, other.name, s["robots"]
+                ),
+            }
+        }
+    }
+}
+
+/// The test's robots: three windows of one drive (the second driven
+/// backwards) and a stranger.
+fn robots(dir: &Path) -> Vec<Robot> {
+    let drive = curvy_drive(1, 2400);
+    let mut rng = Lcg::new(11);
+    vec![
+        Robot::new(dir, "a", drive[..1400].to_vec(), &mut rng),
+        Robot::new(
+            dir,
+            "b",
+            drive[1000..].iter().rev().copied().collect(),
+            &mut rng,
+        ),
+        Robot::new(dir, "c", drive[600..1800].to_vec(), &mut rng),
+        Robot::new(dir, "s", curvy_drive(2, 1200), &mut rng),
+    ]
+}
+
+fn fleet_name(test: &str) -> String {
+    format!("test-{test}-{}", std::process::id())
+}
+
+/// Poses per second of the replays: each robot drives for 3-4 s.
+const RATE: f64 = 400.0;
+
+#[test]
+fn three_robots_and_a_stranger_place_each_other() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let r = robots(dir.path());
+    let fleet = fleet_name("three");
+    let ports: Vec<u16> = (0..r.len()).map(|_| free_port()).collect();
+    let running: Vec<Running> = r
+        .iter()
+        .enumerate()
+        .map(|(i, robot)| {
+            start(
+                dir.path(),
+                &fleet,
+                robot,
+                ports[i],
+                &ports[..i],
+                RATE,
+                4.0,
+                "",
+            )
+        })
+        .collect();
+    let summaries: Vec<Value> = running.into_iter().map(Running::summary).collect();
+    for s in &summaries {
+        assert_eq!(s["refused"]["garbage"], 0, "{s}");
+        eprintln!("{}: {} {}", s["robot"], s["robots"], s["sent"]);
+    }
+    check(
+        &r.iter().collect::<Vec<_>>(),
+        &summaries.iter().collect::<Vec<_>>(),
+    );
+}
+
+#[test]
+fn a_robot_that_joins_late_catches_up() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let r = robots(dir.path());
+    let fleet = fleet_name("late");
+    let ports: Vec<u16> = (0..3).map(|_| free_port()).collect();
+    // A and B stay until C has driven its whole path.
+    let a = start(dir.path(), &fleet, &r[0], ports[0], &[], RATE, 15.0, "");
+    let b = start(
+        dir.path(),
+        &fleet,
+        &r[1],
+        ports[1],
+        &ports[..1],
+        RATE,
+        15.0,
+        "",
+    );
+    // C starts once A and B have driven their paths (the time their
+    // replays take, and a second for the start).
+    std::thread::sleep(Duration::from_secs_f64(1400.0 / RATE + 1.0));
+    let c = start(
+        dir.path(),
+        &fleet,
+        &r[2],
+        ports[2],
+        &ports[..2],
+        RATE,
+        3.0,
+        "",
+    );
+    let (sa, sb, sc) = (a.summary(), b.summary(), c.summary());
+    // C heard A's and B's paths from their histories, asked for.
+    for s in [&sa, &sb] {
+        assert!(
+            s["sent"]["queries_answered"].as_u64() >= Some(1),
+            "{}",
+            s["sent"]
+        );
+    }
+    check(&[&r[0], &r[1], &r[2]], &[&sa, &sb, &sc]);
+}
+
+#[test]
+fn a_robot_killed_and_restarted_is_placed_again_without_stale_state() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let r = robots(dir.path());
+    let fleet = fleet_name("kill");
+    let ports: Vec<u16> = (0..4).map(|_| free_port()).collect();
+    let a = start(dir.path(), &fleet, &r[0], ports[0], &[], RATE, 12.0, "");
+    let c = start(
+        dir.path(),
+        &fleet,
+        &r[2],
+        ports[2],
+        &ports[..1],
+        RATE,
+        12.0,
+        "",
+    );
+    let mut b = start(
+        dir.path(),
+        &fleet,
+        &r[1],
+        ports[1],
+        &[ports[0], ports[2]],
+        RATE,
+        1.0,
+        "-1",
+    );
+    // Killed halfway through its path.
+    std::thread::sleep(Duration::from_secs_f64(700.0 / RATE));
+    Command::new("kill")
+        .args(["-9", &b.child.id().to_string()])
+        .status()
+        .expect("kill -9");
+    let status = b.child.wait().expect("the killed robot");
+    assert!(!status.success());
+    // Restarted under the same name, on another port.
+    let b2 = start(
+        dir.path(),
+        &fleet,
+        &r[1],
+        ports[3],
+        &[ports[0], ports[2]],
+        RATE,
+        3.0,
+        "-2",
+    );
+    let (sa, sb, sc) = (a.summary(), b2.summary(), c.summary());
+    for s in [&sa, &sc] {
+        assert!(
+            s["fleet_state"]["restarts_seen"].as_u64() >= Some(1),
+            "the restart went unseen: {}",
+            s["fleet_state"]
+        );
+        // B's new session only: its whole path, once.
+        let peer = &s["fleet_state"]["peers"]["b"];
+        assert_eq!(peer["poses"], 1400, "{peer}");
+        assert_eq!(peer["ended"], true, "{peer}");
+    }
+    check(&[&r[0], &r[1], &r[2]], &[&sa, &sb, &sc]);
+}
+
+#[test]
+fn garbage_and_a_newer_version_are_refused_and_counted() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let r = robots(dir.path());
+    let fleet = fleet_name("garbage");
+    let ports: Vec<u16> = (0..2).map(|_| free_port()).collect();
+    let a = start(dir.path(), &fleet, &r[0], ports[0], &[], RATE, 6.0, "");
+    let b = start(
+        dir.path(),
+        &fleet,
+        &r[1],
+        ports[1],
+        &ports[..1],
+        RATE,
+        6.0,
+        "",
+    );
+    // A peer of the fleet that sends what no robot should.
+    let (tx, rx) = crossbeam::channel::unbounded();
+    let endpoints = turnprint_fleet::Endpoints {
+        listen: Vec::new(),
+        connect: vec![endpoint(ports[0])],
+    };
+    let evil = turnprint_fleet::transport::Transport::open(&fleet, "evil", &endpoints, tx)
+        .expect("the evil peer's session");
+    // Once A's status arrives, A hears what the peer publishes.
+    rx.recv_timeout(DEADLINE).expect("A's status");
+    let newer = {
+        let mut p = turnprint_fleet::payload::encode_status(1, 0);
+        p[4..6].copy_from_slice(&(turnprint_fleet::payload::VERSION + 1).to_le_bytes());
+        p
+    };
+    let garbage: [Vec<u8>; 3] = [
+        b"hello".to_vec(),
+        vec![0xff; 300],
+        turnprint_fleet::payload::encode_status(1, 0)[..10].to_vec(),
+    ];
+    for g in garbage {
+        evil.publish(g, false).expect("publishing");
+    }
+    for _ in 0..2 {
+        evil.publish(newer.clone(), false).expect("publishing");
+    }
+    let (sa, sb) = (a.summary(), b.summary());
+    drop(evil);
+    assert_eq!(sa["refused"]["garbage"], 3, "{}", sa["refused"]);
+    assert_eq!(sa["refused"]["version"], 2, "{}", sa["refused"]);
+    assert!(sa["robots"].get("evil").is_none(), "{}", sa["robots"]);
+    check(&[&r[0], &r[1]], &[&sa, &sb]);
+}
+
+/// Bad options end with one clear line and a failure, never a panic.
+#[test]
+fn bad_fleet_options_are_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("a.tum");
+    std::fs::write(&path, tum(&curvy_drive(1, 100))).expect("writing");
+    for args in [
+        vec!["--fleet", "f/x", "--robot", "a"],
+        vec!["--fleet", "f", "--robot", "*"],
+        vec!["--fleet", "f", "--robot", "a", "--rate", "0"],
+        vec!["--fleet", "f", "--robot", "a", "--linger", "nan"],
+        vec!["--fleet", "f"],
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_turnprint"))
+            .args(["stream", path.to_str().expect("utf-8"), "--json"])
+            .args(&args)
+            .output()
+            .expect("running turnprint");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(!err.trim().is_empty(), "{args:?}");
+    }
+}
