@@ -170,18 +170,30 @@ impl RobotHistory {
     /// The history from segment boundary `k` (clamped) to its end as a
     /// prepared path (pose indices are the robot's own).
     pub fn window_from(&self, k: usize) -> Option<PreparedPath> {
+        self.window_between(k, None)
+    }
+
+    /// The history from segment boundary `k0` to boundary `k1` (its end
+    /// with `None`; both clamped) as a prepared path.
+    pub fn window_between(&self, k0: usize, k1: Option<usize>) -> Option<PreparedPath> {
         let frame = self.frame?;
         let h = self.history.now();
-        let g0 = match k {
+        let last = h.xy.len().checked_sub(1)?;
+        let grid = |k: usize| {
+            let b = h.bounds.get(k.min(h.bounds.len().checked_sub(1)?))?;
+            h.sig_grid.get(*b).map(|g| g.max(0.0) as usize)
+        };
+        let g0 = match k0 {
             0 => 0,
-            _ => {
-                let b = *h.bounds.get(k.min(h.bounds.len().checked_sub(1)?))?;
-                h.sig_grid.get(b).map_or(0, |g| g.floor().max(0.0) as usize)
-            }
+            _ => grid(k0).unwrap_or(0),
+        };
+        let g1 = match k1 {
+            Some(k) if k + 1 < h.bounds.len() => grid(k).map_or(last, |g| (g + 1).min(last)),
+            _ => last,
         };
         let w = h.window(
             g0,
-            h.xy.len().checked_sub(1)?,
+            g1,
             &frame.plane,
             frame.step,
             frame.bandwidth,

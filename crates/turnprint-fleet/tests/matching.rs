@@ -113,3 +113,100 @@ fn two_robots_that_share_road_place_each_other_and_a_stranger_is_left_out() {
     assert!(e < 0.03, "b misplaced by {e}");
     assert!(est["s"].is_none(), "the stranger was merged");
 }
+
+/// Windows of KITTI 00 (when the data is at hand): every hypothesis each
+/// robot finds of the others, with its error. A diagnostic, not a check.
+#[test]
+#[ignore]
+fn kitti_hypotheses() {
+    let Ok(dir) = std::env::var("KITTI_GT") else {
+        return;
+    };
+    let t = turnprint::io::read_trajectory(
+        std::path::Path::new(&dir).join("00.txt").as_ref(),
+        turnprint::io::Format::Kitti,
+    )
+    .expect("KITTI 00");
+    let p = t.positions();
+    let (mut wrong, mut right): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+    for seed in 1..=4u64 {
+        let mut rng = Lcg::new(seed);
+        let windows = match seed % 2 {
+            1 => [(0usize, 1600usize), (1200, 2800), (2800, 4500)],
+            _ => [(500, 2000), (1800, 3300), (3000, 4540)],
+        };
+        let frames: Vec<Similarity3> = windows
+            .iter()
+            .map(|_| random_similarity(&mut rng))
+            .collect();
+        let paths: Vec<Vec<Vector3<f64>>> = windows
+            .iter()
+            .zip(&frames)
+            .map(|(w, f)| p[w.0..w.1].iter().map(|q| f.apply(q)).collect())
+            .collect();
+        let chunks: Vec<Vec<Chunk>> = paths
+            .iter()
+            .enumerate()
+            .map(|(i, x)| chunks(x, i as u64))
+            .collect();
+        for own in 0..3 {
+            let mut fleet = Fleet::new(&own.to_string(), own as u64);
+            let n = chunks.iter().map(Vec::len).max().unwrap_or(0);
+            for i in 0..n {
+                if let Some(c) = chunks[own].get(i) {
+                    fleet.own_chunk(c).expect("own");
+                }
+                for other in (0..3).filter(|&o| o != own) {
+                    if let Some(c) = chunks[other].get(i) {
+                        fleet.receive(&other.to_string(), &c.encode());
+                    }
+                }
+                for c in fleet.match_new(i + 1 == n) {
+                    let other: usize = c.robot.parse().expect("index");
+                    let truth = frames[own].compose(&frames[other].inverse());
+                    let h = &c.hypothesis;
+                    let pts: Vec<_> = (h.b_range[0]..=h.b_range[1])
+                        .map(|j| paths[other][j])
+                        .collect();
+                    let e = error(&h.similarity(), &truth, &pts, 1.0) / frames[own].scale;
+                    eprintln!(
+                    "{own} <- {other}: score {:.3} a {:?} b {:?} rev {} median error {:.1} m, length {:.0}",
+                    h.score, h.a_range, h.b_range, h.reversed, e, h.length
+                );
+                }
+            }
+            for other in (0..3).filter(|&o| o != own) {
+                let truth = frames[own].compose(&frames[other].inverse());
+                let mut hs = fleet.hypotheses(&other.to_string()).to_vec();
+                hs.sort_by(|x, y| y.score.total_cmp(&x.score));
+                for h in hs.iter() {
+                    let pts: Vec<_> = (h.b_range[0]..=h.b_range[1])
+                        .map(|j| paths[other][j])
+                        .collect();
+                    let e = error(&h.similarity(), &truth, &pts, 1.0) / frames[own].scale;
+                    match e < 20.0 {
+                        true => right.push(h.score),
+                        false => wrong.push(h.score),
+                    }
+                    eprintln!(
+                        "  found {own} <- {other}: score {:.3} a {:?} b {:?} error {e:.1} m",
+                        h.score, h.a_range, h.b_range
+                    );
+                }
+                if let Some(Some(est)) = fleet.estimates().get(&other.to_string()) {
+                    let pts = &paths[other];
+                    let e = error(&est.similarity, &truth, pts, 1.0) / frames[own].scale;
+                    eprintln!(
+                        "  estimate {own} <- {other}: score {:.3} error {e:.1} m",
+                        est.score
+                    );
+                }
+            }
+            eprintln!("{own}: {}", fleet.robots_json());
+        }
+    }
+    wrong.sort_by(|x, y| y.total_cmp(x));
+    right.sort_by(|x, y| y.total_cmp(x));
+    eprintln!("wrong: {:?}", &wrong[..wrong.len().min(12)]);
+    eprintln!("right: {:?}", &right[..right.len().min(40)]);
+}
