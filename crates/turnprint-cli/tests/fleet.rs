@@ -101,10 +101,8 @@ fn start(
     dir: &Path,
     fleet: &str,
     robot: &Robot,
-    listen: u16,
-    connect: &[u16],
-    rate: f64,
-    linger: f64,
+    (listen, connect): (u16, &[u16]),
+    (rate, linger): (f64, f64),
     tag: &str,
 ) -> Running {
     let out = dir.join(format!("{}{tag}.out", robot.name));
@@ -303,10 +301,8 @@ fn three_robots_and_a_stranger_place_each_other() {
                 dir.path(),
                 &fleet,
                 robot,
-                ports[i],
-                &ports[..i],
-                RATE,
-                4.0,
+                (ports[i], &ports[..i]),
+                (RATE, 4.0),
                 "",
             )
         })
@@ -330,15 +326,13 @@ fn a_robot_that_joins_late_catches_up() {
     let fleet = fleet_name("late");
     let ports: Vec<u16> = (0..3).map(|_| free_port()).collect();
     // A and B stay until C has driven its whole path.
-    let a = start(dir.path(), &fleet, &r[0], ports[0], &[], RATE, 15.0, "");
+    let a = start(dir.path(), &fleet, &r[0], (ports[0], &[]), (RATE, 15.0), "");
     let b = start(
         dir.path(),
         &fleet,
         &r[1],
-        ports[1],
-        &ports[..1],
-        RATE,
-        15.0,
+        (ports[1], &ports[..1]),
+        (RATE, 15.0),
         "",
     );
     // C starts once A and B have driven their paths (the time their
@@ -348,10 +342,8 @@ fn a_robot_that_joins_late_catches_up() {
         dir.path(),
         &fleet,
         &r[2],
-        ports[2],
-        &ports[..2],
-        RATE,
-        3.0,
+        (ports[2], &ports[..2]),
+        (RATE, 3.0),
         "",
     );
     let (sa, sb, sc) = (a.summary(), b.summary(), c.summary());
@@ -373,25 +365,21 @@ fn a_robot_killed_and_restarted_is_placed_again_without_stale_state() {
     let r = robots(dir.path());
     let fleet = fleet_name("kill");
     let ports: Vec<u16> = (0..4).map(|_| free_port()).collect();
-    let a = start(dir.path(), &fleet, &r[0], ports[0], &[], RATE, 12.0, "");
+    let a = start(dir.path(), &fleet, &r[0], (ports[0], &[]), (RATE, 12.0), "");
     let c = start(
         dir.path(),
         &fleet,
         &r[2],
-        ports[2],
-        &ports[..1],
-        RATE,
-        12.0,
+        (ports[2], &ports[..1]),
+        (RATE, 12.0),
         "",
     );
     let mut b = start(
         dir.path(),
         &fleet,
         &r[1],
-        ports[1],
-        &[ports[0], ports[2]],
-        RATE,
-        1.0,
+        (ports[1], &[ports[0], ports[2]]),
+        (RATE, 1.0),
         "-1",
     );
     // Killed halfway through its path.
@@ -407,10 +395,8 @@ fn a_robot_killed_and_restarted_is_placed_again_without_stale_state() {
         dir.path(),
         &fleet,
         &r[1],
-        ports[3],
-        &[ports[0], ports[2]],
-        RATE,
-        3.0,
+        (ports[3], &[ports[0], ports[2]]),
+        (RATE, 3.0),
         "-2",
     );
     let (sa, sb, sc) = (a.summary(), b2.summary(), c.summary());
@@ -435,15 +421,13 @@ fn garbage_and_a_newer_version_are_refused_and_counted() {
     let r = robots(dir.path());
     let fleet = fleet_name("garbage");
     let ports: Vec<u16> = (0..2).map(|_| free_port()).collect();
-    let a = start(dir.path(), &fleet, &r[0], ports[0], &[], RATE, 6.0, "");
+    let a = start(dir.path(), &fleet, &r[0], (ports[0], &[]), (RATE, 6.0), "");
     let b = start(
         dir.path(),
         &fleet,
         &r[1],
-        ports[1],
-        &ports[..1],
-        RATE,
-        6.0,
+        (ports[1], &ports[..1]),
+        (RATE, 6.0),
         "",
     );
     // A peer of the fleet that sends what no robot should.
@@ -615,10 +599,8 @@ fn run_kitti(windows: &[(&str, usize, usize)], seed: u64, rate: f64) -> Option<F
                 dir.path(),
                 &fleet,
                 robot,
-                ports[i],
-                &ports[..i],
-                rate,
-                5.0,
+                (ports[i], &ports[..i]),
+                (rate, 5.0),
                 "",
             )
         })

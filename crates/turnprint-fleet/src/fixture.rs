@@ -78,7 +78,10 @@ pub fn curvy_drive(seed: u64, poses: usize) -> Vec<Vector3<f64>> {
 /// A random similarity: scale in 0.5..2, any rotation about the vertical
 /// with a tilt of up to 0.2 rad, a translation of up to 1000 units.
 pub fn random_similarity(rng: &mut Lcg) -> Similarity3 {
-    let yaw = Rotation3::from_axis_angle(&Vector3::z_axis(), rng.range(-3.14, 3.14));
+    let yaw = Rotation3::from_axis_angle(
+        &Vector3::z_axis(),
+        rng.range(-std::f64::consts::PI, std::f64::consts::PI),
+    );
     let tilt = Rotation3::from_axis_angle(&Vector3::x_axis(), rng.range(-0.2, 0.2));
     let rotation: Matrix3<f64> = (tilt * yaw).into_inner();
     Similarity3 {

@@ -251,7 +251,7 @@ impl Fleet {
         let chunk = match message {
             Message::Status { chunks, .. } if chunks > peer.next_seq => return Received::CatchUp,
             Message::Status { .. } => return Received::Ignored,
-            Message::Chunk(c) => c,
+            Message::Chunk(c) => *c,
         };
         if chunk.seq < peer.next_seq || peer.stash.contains_key(&chunk.seq) {
             return Received::Ignored;

@@ -115,7 +115,7 @@ pub struct Chunk {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Message {
     /// Finalised samples.
-    Chunk(Chunk),
+    Chunk(Box<Chunk>),
     /// What the robot has published: a receiver that holds fewer chunks
     /// of that session asks for its history.
     Status {
@@ -152,7 +152,7 @@ pub fn decode(bytes: &[u8]) -> Result<Message, Refusal> {
         return Err(garbage(&format!("unknown payload version {version}")));
     }
     match r.u8()? {
-        0 => Chunk::decode(bytes).map(Message::Chunk),
+        0 => Chunk::decode(bytes).map(|c| Message::Chunk(Box::new(c))),
         1 => {
             if r.u8()? != 0 {
                 return Err(garbage("unknown flags"));

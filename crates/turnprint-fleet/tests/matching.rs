@@ -120,6 +120,7 @@ fn two_robots_that_share_road_place_each_other_and_a_stranger_is_left_out() {
 #[ignore]
 fn kitti_hypotheses() {
     let Ok(dir) = std::env::var("KITTI_GT") else {
+        eprintln!("skipped: set KITTI_GT to the folder of KITTI's ground truth (00.txt)");
         return;
     };
     let t = turnprint::io::read_trajectory(
