@@ -899,14 +899,12 @@ fn run_stream_fleet(
 ) -> Result<(), Failure> {
     let trajectory = read(a, format)?;
     let mut out = std::io::stdout().lock();
-    turnprint_fleet::stream(
-        &trajectory,
-        &a.display().to_string(),
-        config,
-        options,
-        &mut out,
-    )?;
-    Ok(())
+    let name = a.display().to_string();
+    match turnprint_fleet::stream(&trajectory, &name, config, options, &mut out) {
+        Ok(_) => Ok(()),
+        Err(turnprint_fleet::StreamError::OutputClosed) => Err(Failure::StdoutClosed),
+        Err(turnprint_fleet::StreamError::Message(m)) => Err(Failure::Message(m)),
+    }
 }
 
 /// The files `stream --verify` reads and writes besides the path.

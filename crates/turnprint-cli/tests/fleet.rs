@@ -143,13 +143,29 @@ impl Running {
         let last = text.lines().last().expect("a summary line");
         let v: Value = serde_json::from_str(last).expect("JSON");
         assert_eq!(v["event"], "summary", "{last}");
-        // Every line is JSON; cross-robot candidates name their robot.
+        // Every line is JSON; cross-robot candidates carry cli.md's fields.
+        let mut cross = 0;
         for line in text.lines() {
             let e: Value = serde_json::from_str(line).expect("JSON line");
             if e["event"] == "candidate" && e.get("robot").is_some() {
-                assert!(e["query_range"][0].as_u64() <= e["query_range"][1].as_u64());
+                cross += 1;
+                for range in ["query_range", "match_range"] {
+                    let r = &e[range];
+                    assert!(r[0].as_u64() <= r[1].as_u64(), "{line}");
+                }
+                assert!(e["at_pose"].is_u64(), "{line}");
+                assert!(e["scale"].as_f64().is_some_and(|s| s > 0.0), "{line}");
+                assert!(
+                    e["score"]
+                        .as_f64()
+                        .is_some_and(|s| (0.0..=1.0).contains(&s)),
+                    "{line}"
+                );
+                assert_eq!(e["rotation"].as_array().map(Vec::len), Some(3), "{line}");
+                assert_eq!(e["translation"].as_array().map(Vec::len), Some(3), "{line}");
             }
         }
+        assert_eq!(v["cross_candidates"], cross, "{}", v["cross_candidates"]);
         v
     }
 
@@ -382,8 +398,29 @@ fn a_robot_killed_and_restarted_is_placed_again_without_stale_state() {
         (RATE, 1.0),
         "-1",
     );
-    // Killed halfway through its path.
-    std::thread::sleep(Duration::from_secs_f64(700.0 / RATE));
+    // Killed once it has published a chunk (an observer connected to A
+    // hears it as A does), about halfway through its path.
+    let (tx, rx) = crossbeam::channel::unbounded();
+    let endpoints = turnprint_fleet::Endpoints {
+        listen: Vec::new(),
+        connect: vec![endpoint(ports[0])],
+    };
+    let observer = turnprint_fleet::transport::Transport::open(&fleet, "observer", &endpoints, tx)
+        .expect("the observer's session");
+    let t0 = Instant::now();
+    loop {
+        let m = rx.recv_timeout(DEADLINE).expect("a payload");
+        let chunk = matches!(
+            turnprint_fleet::payload::decode(&m.bytes),
+            Ok(turnprint_fleet::payload::Message::Chunk(_))
+        );
+        if m.robot == "b" && chunk {
+            break;
+        }
+        assert!(t0.elapsed() < DEADLINE, "no chunk of B");
+    }
+    drop(observer);
+    std::thread::sleep(Duration::from_secs_f64(300.0 / RATE));
     Command::new("kill")
         .args(["-9", &b.child.id().to_string()])
         .status()

@@ -25,7 +25,7 @@ pub mod run;
 pub mod transport;
 
 pub use fleet::{CrossCandidate, Estimate, Fleet, Received, Refused};
-pub use run::{stream, Options};
+pub use run::{stream, Options, StreamError};
 pub use transport::Endpoints;
 
 /// Longest fleet or robot name.

@@ -52,9 +52,53 @@ pub struct Options {
     pub linger: f64,
 }
 
+/// Why a fleet stream ended before its summary.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum StreamError {
+    /// The reader of the output stopped reading (`| head`): what it read
+    /// is complete.
+    OutputClosed,
+    /// Bad options, a transport that cannot start, an output that fails:
+    /// one clear line.
+    Message(String),
+}
+
+impl std::fmt::Display for StreamError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StreamError::OutputClosed => write!(f, "the output was closed"),
+            StreamError::Message(m) => write!(f, "{m}"),
+        }
+    }
+}
+
+impl From<String> for StreamError {
+    fn from(m: String) -> Self {
+        StreamError::Message(m)
+    }
+}
+
 /// The error for bad options or a transport that cannot start.
-fn bad(why: impl Into<String>) -> String {
-    why.into()
+fn bad(why: impl Into<String>) -> StreamError {
+    StreamError::Message(why.into())
+}
+
+/// The error of a failed write to the output.
+fn output_error(e: std::io::Error) -> StreamError {
+    match e.kind() {
+        std::io::ErrorKind::BrokenPipe => StreamError::OutputClosed,
+        _ => StreamError::Message(format!("<stdout>: {e}")),
+    }
+}
+
+/// Sets `stop` when dropped: the threads of a stream that ends early
+/// (its output closed) end with it.
+struct StopOnDrop(Arc<AtomicBool>);
+
+impl Drop for StopOnDrop {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
 }
 
 /// Streams `trajectory` (named `name`) as robot `options.robot` of the
@@ -65,7 +109,7 @@ pub fn stream(
     config: &OnlineConfig,
     options: &Options,
     out: &mut dyn Write,
-) -> Result<Value, String> {
+) -> Result<Value, StreamError> {
     for (what, v) in [("fleet", &options.fleet), ("robot", &options.robot)] {
         if !crate::valid_name(v) {
             return Err(bad(format!(
@@ -97,6 +141,7 @@ pub fn stream(
     transport.catch_up("*");
     let published = Arc::new(AtomicU32::new(0));
     let stop = Arc::new(AtomicBool::new(false));
+    let _stop_on_drop = StopOnDrop(stop.clone());
     let status = status_thread(transport.clone(), epoch, published.clone(), stop.clone());
     let (own_tx, own_rx) = unbounded();
     let (cand_tx, cand_rx) = unbounded();
@@ -110,8 +155,8 @@ pub fn stream(
             })
             .map_err(|e| format!("starting the matching thread: {e}"))?
     };
-    let write = |out: &mut dyn Write, v: &Value| -> Result<(), String> {
-        writeln!(out, "{v}").map_err(|e| format!("<stdout>: {e}"))
+    let write = |out: &mut dyn Write, v: &Value| -> Result<(), StreamError> {
+        writeln!(out, "{v}").map_err(output_error)
     };
     let mut detector = Detector::new(config.clone(), Overflow::Block);
     let tap = detector.tap_finalised();
@@ -201,7 +246,7 @@ pub fn stream(
         o.insert("cpu_s".into(), json!(cpu_seconds()));
     }
     write(out, &s)?;
-    out.flush().map_err(|e| format!("<stdout>: {e}"))?;
+    out.flush().map_err(output_error)?;
     Ok(s)
 }
 
