@@ -43,12 +43,40 @@ fn serial() -> std::sync::MutexGuard<'static, ()> {
     SERIAL.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// A port free now on loopback.
+/// The ports the system hands out to outgoing connections and to
+/// `bind(0)` (Linux's default where it does not tell).
+fn ephemeral_ports() -> (u16, u16) {
+    std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .ok()
+        .and_then(|t| {
+            let mut it = t.split_whitespace().map(|v| v.parse::<u16>().ok());
+            Some((it.next()??, it.next()??))
+        })
+        .unwrap_or((32768, 60999))
+}
+
+/// A port free now on loopback, outside the ephemeral range: a port
+/// taken from that range can be handed to another robot's outgoing
+/// connection before its own robot listens on it.
 fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port()
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static NEXT: AtomicU32 = AtomicU32::new(0);
+    let (low, high) = ephemeral_ports();
+    // Below the range where it starts high enough, else above it.
+    let (first, last) = match low > 11000 {
+        true => (10000u32, u32::from(low) - 1),
+        false => (u32::from(high) + 1, 65535),
+    };
+    let span = last - first + 1;
+    let start = std::process::id() * 7919;
+    loop {
+        let k = NEXT.fetch_add(1, Ordering::Relaxed);
+        assert!(k < span, "no free port in {first}-{last}");
+        let port = (first + (start + k) % span) as u16;
+        if TcpListener::bind(("127.0.0.1", port)).is_ok() {
+            return port;
+        }
+    }
 }
 
 fn endpoint(port: u16) -> String {
