@@ -391,13 +391,17 @@ fn a_robot_that_joins_late_catches_up() {
         "",
     );
     let (sa, sb, sc) = (a.summary(), b.summary(), c.summary());
-    // C heard A's and B's paths from their histories, asked for.
-    for s in [&sa, &sb] {
+    // C holds every chunk A and B published, most of them before it
+    // started: it asked for their histories.
+    for (s, name) in [(&sa, "a"), (&sb, "b")] {
         assert!(
             s["sent"]["queries_answered"].as_u64() >= Some(1),
             "{}",
             s["sent"]
         );
+        let held = &sc["fleet_state"]["peers"][name];
+        assert_eq!(held["chunks"], s["sent"]["chunks"], "{held}");
+        assert_eq!(held["ended"], true, "{held}");
     }
     check(&[&r[0], &r[1], &r[2]], &[&sa, &sb, &sc]);
 }
