@@ -120,6 +120,9 @@ pub struct Detector {
     flush_samples: usize,
     /// A send was deferred since the last one went through.
     merging: bool,
+    /// Where copies of the finalised samples go, when asked for
+    /// ([`Detector::tap_finalised`]).
+    tap: Option<Sender<Outbox>>,
     /// The drift correction's thread, when asked for.
     #[cfg(feature = "correct")]
     correction: Option<super::correction::Link>,
@@ -186,6 +189,7 @@ impl Detector {
             emitted,
             flush_samples,
             merging: false,
+            tap: None,
             #[cfg(feature = "correct")]
             correction: None,
             #[cfg(feature = "correct")]
@@ -293,6 +297,7 @@ impl Detector {
                 #[cfg(feature = "correct")]
                 self.record(pose, true);
                 self.summary.accepted += 1;
+                let before = self.outbox_lengths();
                 if let Some(k) = pose.keyframe {
                     self.outbox.keyframes.push((index, k));
                 }
@@ -303,6 +308,7 @@ impl Detector {
                     &mut self.summary.guards,
                     &mut self.outbox,
                 );
+                self.copy_to_tap(before);
                 if !self.outbox.bounds.is_empty() || self.outbox.grid.len() >= self.flush_samples {
                     self.send();
                 }
@@ -311,6 +317,40 @@ impl Detector {
         };
         self.summary.push_s += t0.elapsed().as_secs_f64();
         result
+    }
+
+    /// Sends a copy of every sample finalised from now on, as it is
+    /// finalised, to the returned channel: the detector's history as its
+    /// worker takes it in, for sharing it (a fleet's robots share their
+    /// segments). The stream ends when the detector finishes.
+    pub fn tap_finalised(&mut self) -> Receiver<Outbox> {
+        let (tx, rx) = unbounded();
+        self.tap = Some(tx);
+        rx
+    }
+
+    /// Lengths of the outbox's parts (grid, signature, bounds, keyframes).
+    fn outbox_lengths(&self) -> [usize; 4] {
+        let o = &self.outbox;
+        [o.grid.len(), o.sig.len(), o.bounds.len(), o.keyframes.len()]
+    }
+
+    /// Copies what the outbox gained since `before` to the tap, if any.
+    fn copy_to_tap(&self, before: [usize; 4]) {
+        let Some(tap) = &self.tap else {
+            return;
+        };
+        let o = &self.outbox;
+        let copy = Outbox {
+            grid: o.grid[before[0]..].to_vec(),
+            sig: o.sig[before[1]..].to_vec(),
+            bounds: o.bounds[before[2]..].to_vec(),
+            keyframes: o.keyframes[before[3]..].to_vec(),
+        };
+        if !copy.is_empty() {
+            // A caller that dropped its end no longer wants the copies.
+            let _ = tap.send(copy);
+        }
     }
 
     fn frame(&self) -> Option<Frame> {
@@ -493,6 +533,7 @@ impl Detector {
 
     fn drain(mut self) -> (Vec<CandidateEvent>, Summary) {
         let mut counts = self.summary.guards;
+        let before = self.outbox_lengths();
         if let super::frontend::Frontend::Warmup(_) = self.front {
             self.front
                 .start(&self.config, &mut counts, &mut self.outbox);
@@ -500,6 +541,8 @@ impl Detector {
         if let super::frontend::Frontend::Running(s) = &mut self.front {
             s.flush(&mut counts, &mut self.outbox);
         }
+        self.copy_to_tap(before);
+        self.tap = None;
         self.summary.guards = counts;
         if !self.outbox.is_empty() || !self.pending.is_empty() {
             // The last hand-over always waits: nothing may be lost at the end.

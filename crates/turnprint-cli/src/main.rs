@@ -181,7 +181,46 @@ enum Command {
         /// second core, else 1.
         #[arg(long, value_parser = clap::value_parser!(u16).range(1..=turnprint::online::OnlineConfig::MAX_WORKERS as i64))]
         workers: Option<u16>,
+        /// Live map merging: this robot's segments shared with the fleet's
+        /// other robots over Zenoh (key expressions `turnprint/NAME/`),
+        /// theirs matched against its own.
+        #[arg(long, value_name = "NAME", requires = "robot")]
+        fleet: Option<String>,
+        /// This robot's name in the fleet.
+        #[arg(long, value_name = "ID", requires = "fleet")]
+        robot: Option<String>,
+        /// A Zenoh endpoint to listen on (`tcp/127.0.0.1:7447`); repeatable.
+        #[arg(long, value_name = "EP", requires = "fleet")]
+        listen: Vec<String>,
+        /// A Zenoh endpoint to connect to; repeatable. With neither
+        /// --listen nor --connect, Zenoh's default discovery is used.
+        #[arg(long, value_name = "EP", requires = "fleet")]
+        connect: Vec<String>,
+        /// Replay A at this many poses per second (default: as fast as it
+        /// can).
+        #[arg(long, value_name = "HZ", requires = "fleet", value_parser = positive_seconds)]
+        rate: Option<f64>,
+        /// Keep matching and listening this many seconds after A's last
+        /// pose before the summary.
+        #[arg(long, value_name = "S", requires = "fleet", default_value_t = 0.0, value_parser = non_negative_seconds)]
+        linger: f64,
     },
+}
+
+/// A positive finite number (a rate).
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a positive number")),
+    }
+}
+
+/// A finite number, 0 or more (seconds).
+fn non_negative_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a number of seconds (0 or more)")),
+    }
 }
 
 /// A score threshold: a number in [0, 1] (scores are in [0, 1]; NaN or a
@@ -281,6 +320,12 @@ fn main() -> ExitCode {
             no_drift_probe,
             workers,
             correct,
+            fleet,
+            robot,
+            listen,
+            connect,
+            rate,
+            linger,
         } => {
             let config = turnprint::online::OnlineConfig {
                 top_k: top,
@@ -293,7 +338,22 @@ fn main() -> ExitCode {
                 ),
                 ..Default::default()
             };
-            if verify && a == Path::new("-") {
+            let fleet = fleet
+                .zip(robot)
+                .map(|(fleet, robot)| turnprint_fleet::Options {
+                    fleet,
+                    robot,
+                    endpoints: turnprint_fleet::Endpoints { listen, connect },
+                    rate,
+                    linger,
+                });
+            if let Some(options) = fleet {
+                if verify || correct.is_some() || a == Path::new("-") {
+                    Err("stream --fleet replays a file: give it a path, without --verify or --correct".into())
+                } else {
+                    run_stream_fleet(&a, &config, format, &options)
+                }
+            } else if verify && a == Path::new("-") {
                 Err(
                     "stream --verify renders keyframes along the whole path: give it a file, \
                      not stdin (-)"
@@ -829,6 +889,22 @@ fn run_stream(
         turnprint_cli::stream::stream_trajectory(&trajectory, &name, config, correct, &mut out)?;
     }
     Ok(())
+}
+
+fn run_stream_fleet(
+    a: &Path,
+    config: &turnprint::online::OnlineConfig,
+    format: Format,
+    options: &turnprint_fleet::Options,
+) -> Result<(), Failure> {
+    let trajectory = read(a, format)?;
+    let mut out = std::io::stdout().lock();
+    let name = a.display().to_string();
+    match turnprint_fleet::stream(&trajectory, &name, config, options, &mut out) {
+        Ok(_) => Ok(()),
+        Err(turnprint_fleet::StreamError::OutputClosed) => Err(Failure::StdoutClosed),
+        Err(turnprint_fleet::StreamError::Message(m)) => Err(Failure::Message(m)),
+    }
 }
 
 /// The files `stream --verify` reads and writes besides the path.

@@ -1,0 +1,223 @@
+//! A robot's history as this process holds it: the library's online
+//! [`History`] rebuilt from the robot's chunks (the decimated track filled
+//! in linearly), and the chunks cut from a detector's finalised samples.
+//! The process's own history goes through the same two steps, so that both
+//! sides of a match are what every robot of the fleet sees.
+
+use turnprint::online::frontend::Outbox;
+use turnprint::online::history::History;
+use turnprint::pipeline::PreparedPath;
+
+use crate::payload::{Chunk, FrameInfo, KeptSample, DECIMATION};
+
+/// Cuts a detector's finalised samples into chunks.
+#[derive(Debug)]
+pub struct Encoder {
+    epoch: u64,
+    seq: u32,
+    grid: u32,
+    sig: u32,
+}
+
+impl Encoder {
+    /// An encoder for the session `epoch`.
+    pub fn new(epoch: u64) -> Encoder {
+        Encoder {
+            epoch,
+            seq: 0,
+            grid: 0,
+            sig: 0,
+        }
+    }
+
+    /// The chunk of `out` (the samples finalised since the last chunk),
+    /// after `poses` poses, in `frame`; `last` when the stream ends.
+    pub fn chunk(&mut self, out: &Outbox, poses: usize, frame: FrameInfo, last: bool) -> Chunk {
+        let g0 = self.grid as usize;
+        let n = out.grid.len();
+        let kept = out
+            .grid
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| (g0 + i).is_multiple_of(DECIMATION) || i + 1 == n)
+            .map(|(i, g)| KeptSample {
+                index: (g0 + i) as u32,
+                xy: [g.xy.x as f32, g.xy.y as f32],
+                s: g.s,
+                curvature: g.curvature as f32,
+                pose: g.pose.max(0.0) as f32,
+            })
+            .collect();
+        let chunk = Chunk {
+            epoch: self.epoch,
+            seq: self.seq,
+            last,
+            poses: poses as u32,
+            frame,
+            grid_end: (g0 + n) as u32,
+            kept,
+            sig0: self.sig,
+            sig: out.sig.iter().map(|p| (p.value as f32, p.grid)).collect(),
+            bounds: out.bounds.iter().map(|&b| b as u32).collect(),
+        };
+        self.seq += 1;
+        self.grid += n as u32;
+        self.sig += out.sig.len() as u32;
+        chunk
+    }
+}
+
+/// One robot's history, rebuilt from its chunks in order.
+#[derive(Default)]
+pub struct RobotHistory {
+    /// The samples, as the online search reads them.
+    pub history: History,
+    /// The robot's frame (from its first chunk).
+    pub frame: Option<FrameInfo>,
+    /// Poses the robot had pushed at its last chunk.
+    pub poses: usize,
+    /// Its last kept track sample (the start of the next fill).
+    last: Option<KeptSample>,
+}
+
+impl RobotHistory {
+    /// Appends the next chunk: its track samples filled in between the
+    /// kept ones, its signature samples and boundaries. A chunk that does
+    /// not continue the history is refused whole (the history is left as
+    /// it was).
+    pub fn apply(&mut self, c: &Chunk) -> Result<(), String> {
+        let h = &self.history;
+        if c.sig0 as usize != h.sig_value.len() {
+            return Err(format!(
+                "signature samples from {} where {} are held",
+                c.sig0,
+                h.sig_value.len()
+            ));
+        }
+        if self.frame.is_some_and(|f| f != c.frame) {
+            return Err("the robot's frame changed within its session".into());
+        }
+        let held = h.xy.len();
+        match (c.kept.first(), self.last) {
+            (None, _) if c.grid_end as usize != held => {
+                return Err("track samples announced but not sent".into())
+            }
+            (Some(k), None) if k.index != 0 => return Err("the track does not start at 0".into()),
+            (Some(k), Some(l)) if k.index <= l.index || k.s < l.s || k.pose < l.pose => {
+                return Err("the track does not continue".into())
+            }
+            _ => {}
+        }
+        let sig_ok = c.sig.first().is_none_or(|s| {
+            h.sig_grid.last().is_none_or(|&g| g <= s.1) && s.1 <= c.grid_end as f64
+        }) && c.sig.last().is_none_or(|s| s.1 <= c.grid_end as f64);
+        if !sig_ok {
+            return Err("signature samples outside the track".into());
+        }
+        let n_sig = h.sig_value.len() + c.sig.len();
+        let bounds_ok = c
+            .bounds
+            .first()
+            .is_none_or(|&b| h.bounds.last().is_none_or(|&l| l < b as usize))
+            && c.bounds.iter().all(|&b| b as usize <= n_sig);
+        if !bounds_ok {
+            return Err("segment boundaries outside the signature".into());
+        }
+        let h = &mut self.history;
+        for k in &c.kept {
+            let from = self.last.unwrap_or(*k);
+            let span = (k.index - from.index).max(1) as f64;
+            for i in (from.index + u32::from(self.last.is_some()))..=k.index {
+                let t = (i - from.index) as f64 / span;
+                let lerp = |a: f64, b: f64| a + t * (b - a);
+                h.xy.push([
+                    lerp(from.xy[0] as f64, k.xy[0] as f64) as f32,
+                    lerp(from.xy[1] as f64, k.xy[1] as f64) as f32,
+                ]);
+                h.s.push(lerp(from.s, k.s));
+                h.curvature
+                    .push(lerp(from.curvature as f64, k.curvature as f64) as f32);
+                h.pose
+                    .push(lerp(from.pose as f64, k.pose as f64).round() as u32);
+            }
+            self.last = Some(*k);
+        }
+        for &(v, g) in &c.sig {
+            h.sig_value.push(v);
+            h.sig_grid.push(g);
+        }
+        h.bounds.extend(c.bounds.iter().map(|&b| b as usize));
+        h.index_new_samples();
+        self.frame.get_or_insert(c.frame);
+        self.poses = self.poses.max(c.poses as usize);
+        Ok(())
+    }
+
+    /// Segment boundaries held.
+    pub fn segments(&self) -> usize {
+        self.history.bounds.len()
+    }
+
+    /// Arc length of the track held.
+    pub fn length(&self) -> f64 {
+        let s = &self.history.s;
+        match (s.first(), s.last()) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    }
+
+    /// The history from segment boundary `k` (clamped) to its end as a
+    /// prepared path (pose indices are the robot's own).
+    pub fn window_from(&self, k: usize) -> Option<PreparedPath> {
+        self.window_between(k, None)
+    }
+
+    /// The history from segment boundary `k0` to boundary `k1` (its end
+    /// with `None`; both clamped) as a prepared path.
+    pub fn window_between(&self, k0: usize, k1: Option<usize>) -> Option<PreparedPath> {
+        let frame = self.frame?;
+        let h = self.history.now();
+        let last = h.xy.len().checked_sub(1)?;
+        let grid = |k: usize| {
+            let b = h.bounds.get(k.min(h.bounds.len().checked_sub(1)?))?;
+            h.sig_grid.get(*b).map(|g| g.max(0.0) as usize)
+        };
+        let g0 = match k0 {
+            0 => 0,
+            _ => grid(k0).unwrap_or(0),
+        };
+        let g1 = match k1 {
+            Some(k) if k + 1 < h.bounds.len() => grid(k).map_or(last, |g| (g + 1).min(last)),
+            _ => last,
+        };
+        let w = h.window(
+            g0,
+            g1,
+            &frame.plane,
+            frame.step,
+            frame.bandwidth,
+            frame.dk,
+            self.poses.max(1),
+        )?;
+        Some(w.path)
+    }
+
+    /// About `n` points of the track in the robot's 3D frame, evenly
+    /// spread (for comparing placements).
+    pub fn points3(&self, n: usize) -> Vec<nalgebra::Vector3<f64>> {
+        let Some(frame) = self.frame else {
+            return Vec::new();
+        };
+        let xy = &self.history.xy;
+        let stride = xy.len().div_ceil(n.max(1)).max(1);
+        xy.iter()
+            .step_by(stride)
+            .map(|p| {
+                frame.plane.origin
+                    + frame.plane.world_R_plane
+                        * nalgebra::Vector3::new(p[0] as f64, p[1] as f64, 0.0)
+            })
+            .collect()
+    }
+}
