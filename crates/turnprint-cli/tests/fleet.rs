@@ -704,7 +704,7 @@ fn kitti_windows_place_each_other() {
 /// similarities on the KITTI windows. `cargo test --release -p
 /// turnprint-cli --test fleet -- --ignored --nocapture fleet_figures`
 #[test]
-#[ignore]
+#[ignore = "a measurement, not a check: the figures of EVALUATION_ONLINE.md (Fleet), several minutes"]
 fn fleet_figures() {
     let _serial = serial();
     let mut all = Figures::default();
