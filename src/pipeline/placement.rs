@@ -198,15 +198,12 @@ fn sample(path: &Trajectory) -> Vec<Vector3<f64>> {
 }
 
 /// Whether two placements of `points` agree (see [`AGREEMENT`]).
-fn agrees(points: &[Vector3<f64>], x: &Similarity3, y: &Similarity3) -> bool {
+pub fn agrees(points: &[Vector3<f64>], x: &Similarity3, y: &Similarity3) -> bool {
     if points.is_empty() {
         return true;
     }
     let placed: Vec<Vector3<f64>> = points.iter().map(|p| x.apply(p)).collect();
-    let (lo, hi) = placed
-        .iter()
-        .fold((placed[0], placed[0]), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
-    let extent = (hi - lo).norm();
+    let extent = crate::geometry::extent(&placed);
     let mut d: Vec<f64> = points
         .iter()
         .zip(&placed)

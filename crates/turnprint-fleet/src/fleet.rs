@@ -17,7 +17,7 @@ use std::collections::{BTreeMap, HashSet};
 use nalgebra::Vector3;
 use serde_json::{json, Value};
 use turnprint::geometry::Similarity3;
-use turnprint::pipeline::placement::{AGREEMENT, MIN_OVERLAP_SCORE};
+use turnprint::pipeline::placement::{agrees, MIN_OVERLAP_SCORE};
 use turnprint::pipeline::{match_prepared, Config};
 use turnprint::Hypothesis;
 
@@ -524,33 +524,10 @@ fn overlapping(a: [usize; 2], b: [usize; 2]) -> bool {
 }
 
 /// Whether two hypotheses place the other robot alike: its points land
-/// within [`AGREEMENT`] of its placed extent of each other (median), the
-/// rule by which `merge` compares placements.
+/// within `placement::AGREEMENT` of its placed extent of each other
+/// (median), the rule by which `merge` compares placements.
 fn agree(a: &Hypothesis, b: &Hypothesis, points: &[Vector3<f64>]) -> bool {
-    let (ta, tb) = (a.similarity(), b.similarity());
-    let placed: Vec<Vector3<f64>> = points.iter().map(|p| ta.apply(p)).collect();
-    let extent = extent(&placed);
-    let mut d: Vec<f64> = points
-        .iter()
-        .zip(&placed)
-        .map(|(p, q)| (tb.apply(p) - q).norm())
-        .collect();
-    if d.is_empty() || extent <= 0.0 {
-        return false;
-    }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2] <= AGREEMENT * extent
-}
-
-/// Diagonal of the points' bounding box.
-fn extent(points: &[Vector3<f64>]) -> f64 {
-    let Some(first) = points.first() else {
-        return 0.0;
-    };
-    let (lo, hi) = points
-        .iter()
-        .fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
-    (hi - lo).norm()
+    !points.is_empty() && agrees(points, &a.similarity(), &b.similarity())
 }
 
 /// Best score that places a robot through one hypothesis alone; a weaker

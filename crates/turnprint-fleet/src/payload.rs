@@ -138,9 +138,9 @@ pub fn encode_status(epoch: u64, chunks: u32) -> Vec<u8> {
     b
 }
 
-/// Reads a payload, refusing anything this build cannot trust.
-pub fn decode(bytes: &[u8]) -> Result<Message, Refusal> {
-    let mut r = Reader { b: bytes, at: 0 };
+/// Reads the magic and the version every payload starts with: a newer
+/// version is refused as such, anything else unknown as garbage.
+fn header(r: &mut Reader) -> Result<(), Refusal> {
     if r.take(4)? != MAGIC {
         return Err(garbage("no turnprint fleet magic"));
     }
@@ -151,6 +151,13 @@ pub fn decode(bytes: &[u8]) -> Result<Message, Refusal> {
     if version != VERSION {
         return Err(garbage(&format!("unknown payload version {version}")));
     }
+    Ok(())
+}
+
+/// Reads a payload, refusing anything this build cannot trust.
+pub fn decode(bytes: &[u8]) -> Result<Message, Refusal> {
+    let mut r = Reader { b: bytes, at: 0 };
+    header(&mut r)?;
     match r.u8()? {
         0 => Chunk::decode(bytes).map(|c| Message::Chunk(Box::new(c))),
         1 => {
@@ -218,16 +225,7 @@ impl Chunk {
     /// Reads a chunk's payload, refusing anything this build cannot trust.
     pub fn decode(bytes: &[u8]) -> Result<Chunk, Refusal> {
         let mut r = Reader { b: bytes, at: 0 };
-        if r.take(4)? != MAGIC {
-            return Err(garbage("no turnprint fleet magic"));
-        }
-        let version = r.u16()?;
-        if version > VERSION {
-            return Err(Refusal::Version(version));
-        }
-        if version != VERSION {
-            return Err(garbage(&format!("unknown payload version {version}")));
-        }
+        header(&mut r)?;
         if r.u8()? != 0 {
             return Err(garbage("unknown payload kind"));
         }

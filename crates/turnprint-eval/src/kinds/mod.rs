@@ -20,7 +20,6 @@ pub mod loops;
 pub mod merge;
 pub mod report;
 
-use nalgebra::Vector3;
 use serde::Serialize;
 
 pub use catalog::{catalog, Session};
@@ -111,16 +110,7 @@ impl Kind {
     }
 }
 
-/// Bounding-box diagonal of the points (0 for none).
-pub fn extent(points: &[Vector3<f64>]) -> f64 {
-    let Some(first) = points.first() else {
-        return 0.0;
-    };
-    let (lo, hi) = points
-        .iter()
-        .fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
-    (hi - lo).norm()
-}
+pub use turnprint::geometry::extent;
 
 /// Settings of one run of the evaluation over every kind.
 #[derive(Debug, Clone)]
