@@ -74,28 +74,44 @@ impl CandidateEvent {
     /// The JSON Lines form of `cli.md` (`stream`): a `loops` entry plus
     /// `event`, `at_pose` and `id`.
     pub fn to_json(&self) -> Value {
-        let h = self.hypothesis.to_json();
-        json!({
-            "event": "candidate",
-            "at_pose": self.at_pose,
+        let mut event = candidate_fields(&self.hypothesis, self.at_pose);
+        let extra = json!({
             "id": self.id,
-            "rank": h.rank,
-            "score": h.score,
-            "zncc": h.zncc,
-            "reversed": h.reversed,
-            "query_range": h.a_range,
-            "match_range": h.b_range,
-            "scale": h.scale,
-            "rotation": h.rotation,
-            "translation": h.translation,
-            "rmse": h.rmse,
-            "turning_deg": h.turning_deg,
+            "rank": self.hypothesis.rank,
             "source": self.source.name(),
             "keyframes": self.keyframes,
             "query_keyframes": self.query_keyframes,
             "match_keyframes": self.match_keyframes,
-        })
+        });
+        if let Value::Object(extra) = extra {
+            event.extend(extra);
+        }
+        Value::Object(event)
     }
+}
+
+/// The fields every `candidate` event of `cli.md` carries, the detector's
+/// and a fleet's alike: `event`, `at_pose` and the overlap, its ranges
+/// named from the query's side (`query_range`: the poses just driven).
+pub fn candidate_fields(h: &Hypothesis, at_pose: usize) -> serde_json::Map<String, Value> {
+    let h = h.to_json();
+    [
+        ("event", json!("candidate")),
+        ("at_pose", json!(at_pose)),
+        ("score", json!(h.score)),
+        ("zncc", json!(h.zncc)),
+        ("reversed", json!(h.reversed)),
+        ("query_range", json!(h.a_range)),
+        ("match_range", json!(h.b_range)),
+        ("scale", json!(h.scale)),
+        ("rotation", json!(h.rotation)),
+        ("translation", json!(h.translation)),
+        ("rmse", json!(h.rmse)),
+        ("turning_deg", json!(h.turning_deg)),
+    ]
+    .into_iter()
+    .map(|(key, value)| (key.to_string(), value))
+    .collect()
 }
 
 /// How a candidate handed to a verifier ended.

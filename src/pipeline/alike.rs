@@ -11,7 +11,7 @@
 
 use super::prepare::PreparedPath;
 use super::{match_prepared, Config};
-use crate::{Hypothesis, Trajectory};
+use crate::Hypothesis;
 
 /// A first match whose best hypothesis scores below this looks again
 /// smoothed alike: the score that places a path through one overlap alone
@@ -47,8 +47,6 @@ const MIN_BANDWIDTHS: f64 = 16.0;
 /// The hypotheses of `a` and `b` with one of them smoothed wider, at each
 /// level where its hypotheses find the two bandwidths alike.
 pub fn match_smoothed_alike(
-    a: &Trajectory,
-    b: &Trajectory,
     pa: &PreparedPath,
     pb: &PreparedPath,
     config: &Config,
@@ -58,14 +56,14 @@ pub fn match_smoothed_alike(
         let widen = LEVEL_RATIO.powi(level);
         // A smoothed wider, B as chosen: A's bandwidth over B's in A's
         // units is `widen · bw_a / (scale · bw_b)`.
-        if let Some(wide) = coarsened(a, pa, widen, config) {
+        if let Some(wide) = coarsened(pa, widen, config) {
             all.extend(
                 match_prepared(&wide, pb, config)
                     .into_iter()
                     .filter(|h| alike(wide.track.bandwidth, h.scale * pb.track.bandwidth)),
             );
         }
-        if let Some(wide) = coarsened(b, pb, widen, config) {
+        if let Some(wide) = coarsened(pb, widen, config) {
             all.extend(
                 match_prepared(pa, &wide, config)
                     .into_iter()
@@ -76,19 +74,14 @@ pub fn match_smoothed_alike(
     all
 }
 
-/// `t` prepared with `widen` times its own bandwidth, unless it would then
-/// span too few bandwidths to hold a shape.
-fn coarsened(
-    t: &Trajectory,
-    p: &PreparedPath,
-    widen: f64,
-    config: &Config,
-) -> Option<PreparedPath> {
+/// `p` smoothed `widen` times wider, unless it would then span too few
+/// bandwidths to hold a shape.
+fn coarsened(p: &PreparedPath, widen: f64, config: &Config) -> Option<PreparedPath> {
     let bandwidth = widen * p.track.bandwidth;
     if !(bandwidth > 0.0 && p.track.length() >= MIN_BANDWIDTHS * bandwidth) {
         return None;
     }
-    PreparedPath::with_bandwidth(t, config, bandwidth).ok()
+    p.smoothed_with(bandwidth, config)
 }
 
 /// Two bandwidths in one frame are alike within [`ALIKE_TOLERANCE`].

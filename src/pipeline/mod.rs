@@ -87,7 +87,7 @@ pub fn match_across_rates(
     all.extend(match_thinned(a, b, pa, pb, config));
     // Nothing convincing: each smoothed wider, where that makes them alike.
     if all.iter().all(|h| h.score < alike::ALIKE_BELOW_SCORE) {
-        all.extend(alike::match_smoothed_alike(a, b, pa, pb, config));
+        all.extend(alike::match_smoothed_alike(pa, pb, config));
     }
     let ranked = rank::rank(all, config.top_k, config.min_score, Duplicates::Alignment);
     // The reported similarities, refined on the raw poses.

@@ -7,7 +7,7 @@ use super::Config;
 use crate::geometry::{Plane, Polyline2};
 use crate::segments::boundaries;
 use crate::signature::Signature;
-use crate::track::Track;
+use crate::track::{ChordParam, Smoother, Track};
 use crate::{Error, Result, Trajectory};
 
 /// Fewest poses the method can work with.
@@ -35,24 +35,6 @@ pub struct PreparedPath {
 impl PreparedPath {
     /// Runs plane fit, track, signature and segmentation.
     pub fn new(trajectory: &Trajectory, config: &Config) -> Result<PreparedPath> {
-        Self::smoothed(trajectory, config, None)
-    }
-
-    /// [`PreparedPath::new`] with the smoothing bandwidth given (units of
-    /// the path) instead of chosen from its poses.
-    pub fn with_bandwidth(
-        trajectory: &Trajectory,
-        config: &Config,
-        bandwidth: f64,
-    ) -> Result<PreparedPath> {
-        Self::smoothed(trajectory, config, Some(bandwidth))
-    }
-
-    fn smoothed(
-        trajectory: &Trajectory,
-        config: &Config,
-        bandwidth: Option<f64>,
-    ) -> Result<PreparedPath> {
         let name = &trajectory.source;
         let n = trajectory.len();
         if n < MIN_POSES {
@@ -73,30 +55,47 @@ impl PreparedPath {
         }
         let positions = trajectory.positions();
         let plane = Plane::fit(&positions);
-        let points: Vec<Vector2<f64>> = positions.iter().map(|p| plane.to_2d(p)).collect();
-        let track = match bandwidth {
-            None => Track::build(&points),
-            Some(bandwidth) => crate::track::ChordParam::new(&points)
-                .map(|chord| Track::from_smoother(&chord, &crate::track::Smoother { bandwidth })),
-        }
-        .ok_or_else(|| {
+        let track = Track::build(&plane_points(&plane, &positions)).ok_or_else(|| {
             Error::input(
                 name,
                 "the path does not move (fewer than 3 distinct positions)",
             )
         })?;
+        Ok(Self::from_track(plane, track, positions, config))
+    }
+
+    /// The same path smoothed with `bandwidth` (units of the path) instead
+    /// of the bandwidth chosen from its poses: its plane and poses kept.
+    pub fn smoothed_with(&self, bandwidth: f64, config: &Config) -> Option<PreparedPath> {
+        let chord = ChordParam::new(&plane_points(&self.plane, &self.positions))?;
+        let track = Track::from_smoother(&chord, &Smoother { bandwidth });
+        Some(Self::from_track(
+            self.plane,
+            track,
+            self.positions.clone(),
+            config,
+        ))
+    }
+
+    /// Signature, segments and polyline of a track.
+    fn from_track(
+        plane: Plane,
+        track: Track,
+        positions: Vec<Vector3<f64>>,
+        config: &Config,
+    ) -> PreparedPath {
         let signature = Signature::build(&track, &config.signature);
         let bounds = boundaries(&signature, &config.segments);
         let polyline = Polyline2::new(&track.xy);
-        Ok(PreparedPath {
+        PreparedPath {
             plane,
             track,
             signature,
             bounds,
             polyline,
-            poses: n,
+            poses: positions.len(),
             positions,
-        })
+        }
     }
 
     /// 3D position of a fractional grid index: the smoothed track in the
@@ -156,4 +155,9 @@ impl PreparedPath {
         let i1 = g.partition_point(|&x| x <= g0.max(g1));
         i1.saturating_sub(i0) as f64 * self.signature.dk
     }
+}
+
+/// The positions in the plane's 2D coordinates.
+fn plane_points(plane: &Plane, positions: &[Vector3<f64>]) -> Vec<Vector2<f64>> {
+    positions.iter().map(|p| plane.to_2d(p)).collect()
 }

@@ -17,6 +17,7 @@ use std::collections::{BTreeMap, HashSet};
 use nalgebra::Vector3;
 use serde_json::{json, Value};
 use turnprint::geometry::Similarity3;
+use turnprint::online::events::candidate_fields;
 use turnprint::pipeline::placement::{agrees, MIN_OVERLAP_SCORE};
 use turnprint::pipeline::{match_prepared, Config};
 use turnprint::Hypothesis;
@@ -70,22 +71,9 @@ pub struct CrossCandidate {
 impl CrossCandidate {
     /// The `candidate` event of `cli.md` (fleet form).
     pub fn to_json(&self) -> Value {
-        let h = self.hypothesis.to_json();
-        json!({
-            "event": "candidate",
-            "robot": self.robot,
-            "at_pose": self.at_pose,
-            "score": h.score,
-            "zncc": h.zncc,
-            "reversed": h.reversed,
-            "query_range": h.a_range,
-            "match_range": h.b_range,
-            "scale": h.scale,
-            "rotation": h.rotation,
-            "translation": h.translation,
-            "rmse": h.rmse,
-            "turning_deg": h.turning_deg,
-        })
+        let mut event = candidate_fields(&self.hypothesis, self.at_pose);
+        event.insert("robot".into(), Value::from(self.robot.clone()));
+        Value::Object(event)
     }
 }
 
