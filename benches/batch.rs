@@ -4,7 +4,9 @@
 //! 5000-pose paths, `match` of KITTI 00 against its 1 Hz GPS
 //! (two sampling rates: matched twice), and, side by side, the FFT ZNCC
 //! against the direct one on the same signature, and reading a generated
-//! 30 000-point GPX track. The paths come from the
+//! 30 000-point GPX track, and `merge` of 100 sessions of about 1 km
+//! (windows of the eleven KITTI drives, each under its own similarity,
+//! half of them driven the other way). The paths come from the
 //! shared data (`turnprint_eval::data`); a bench whose file is absent says
 //! so and is skipped.
 
@@ -12,10 +14,11 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Rotation3, Vector3};
+use rand::{Rng, SeedableRng};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::matching::zncc::zncc_direct;
 use turnprint::matching::Correlator;
-use turnprint::pipeline::{find_loops, match_paths, Config, PreparedPath};
+use turnprint::pipeline::{find_loops, match_paths, merge_many, Config, PreparedPath};
 use turnprint::Trajectory;
 
 /// `file` of the shared data (e.g. `kitti_gt/00.txt`), or `None` after a
@@ -161,8 +164,50 @@ fn bench_read_gpx(c: &mut Criterion) {
     });
 }
 
+/// `n` sessions of about 1 km: windows at random places of the KITTI
+/// drives taken in turn (90 % of a drive shorter than 1.1 km), each under
+/// a random similarity, every other one reversed.
+fn sessions(n: usize) -> Option<Vec<Trajectory>> {
+    let drives: Vec<Vec<Vector3<f64>>> = (0..11)
+        .map(|i| kitti(&format!("{i:02}")).map(|t| t.positions()))
+        .collect::<Option<_>>()?;
+    let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+    let windows = (0..n).map(|i| {
+        let p = &drives[i % drives.len()];
+        let arc = turnprint_eval::revisits::arc_lengths(p);
+        let length = arc[arc.len() - 1];
+        let want = 1000.0f64.min(0.9 * length);
+        let start = rng.random_range(0.0..length - want);
+        let (a, b) = (
+            arc.partition_point(|&s| s < start),
+            arc.partition_point(|&s| s < start + want),
+        );
+        let t = turnprint_eval::similarity::random_similarity(&mut rng, 500.0);
+        let mut moved: Vec<_> = p[a..b].iter().map(|x| t.apply(x)).collect();
+        if i % 2 == 1 {
+            moved.reverse();
+        }
+        Trajectory::from_positions(format!("session {i}"), &moved)
+    });
+    Some(windows.collect())
+}
+
+fn bench_merge_many(c: &mut Criterion) {
+    let Some(paths) = sessions(100) else {
+        return;
+    };
+    let config = Config::for_matching();
+    let mut group = c.benchmark_group("merge");
+    group.sample_size(10);
+    group.bench_function("merge 100 sessions of 1 km (end to end)", |b| {
+        b.iter(|| merge_many(black_box(&paths), &config).unwrap())
+    });
+    group.finish();
+}
+
 criterion_group!(
     benches,
+    bench_merge_many,
     bench_read_gpx,
     bench_loops,
     bench_loops_long,

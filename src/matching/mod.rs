@@ -4,6 +4,7 @@
 pub mod blocks;
 pub mod candidates;
 pub mod peaks;
+pub mod turn_index;
 pub mod turns;
 pub mod zncc;
 

@@ -10,7 +10,7 @@
 //! level it came from is then the pair's common resolution.
 
 use super::prepare::PreparedPath;
-use super::{match_prepared, Config};
+use super::{match_prepared_within, Config};
 use crate::Hypothesis;
 
 /// A first match whose best hypothesis scores below this looks again
@@ -44,6 +44,15 @@ const ALIKE_TOLERANCE: f64 = std::f64::consts::SQRT_2;
 /// segments, so a path of fewer than 16 holds little to match.
 const MIN_BANDWIDTHS: f64 = 16.0;
 
+/// How far a candidate's scale, read from the arc lengths of its aligned
+/// ranges before any fit, is trusted: within a factor of 2. A true
+/// overlap's ranges are the same road, so they differ by the scale up to
+/// where their ends fall on the two signatures' `K` grids (a few percent
+/// over a query of several segments); a factor of 2 leaves every such
+/// candidate in, and sends to verification only the quarter of the
+/// candidates whose scale the level could keep.
+const SCALE_READING: f64 = 2.0;
+
 /// The hypotheses of `a` and `b` with one of them smoothed wider, at each
 /// level where its hypotheses find the two bandwidths alike.
 pub fn match_smoothed_alike(
@@ -55,23 +64,34 @@ pub fn match_smoothed_alike(
     for level in 1..=LEVELS {
         let widen = LEVEL_RATIO.powi(level);
         // A smoothed wider, B as chosen: A's bandwidth over B's in A's
-        // units is `widen · bw_a / (scale · bw_b)`.
+        // units is `widen · bw_a / (scale · bw_b)`, so the level keeps
+        // scales near `widen · bw_a / bw_b`.
         if let Some(wide) = coarsened(pa, widen, config) {
+            let scales = around(wide.track.bandwidth / pb.track.bandwidth);
             all.extend(
-                match_prepared(&wide, pb, config)
+                match_prepared_within(&wide, pb, Some(scales), config)
                     .into_iter()
                     .filter(|h| alike(wide.track.bandwidth, h.scale * pb.track.bandwidth)),
             );
         }
         if let Some(wide) = coarsened(pb, widen, config) {
+            let scales = around(pa.track.bandwidth / wide.track.bandwidth);
             all.extend(
-                match_prepared(pa, &wide, config)
+                match_prepared_within(pa, &wide, Some(scales), config)
                     .into_iter()
                     .filter(|h| alike(pa.track.bandwidth, h.scale * wide.track.bandwidth)),
             );
         }
     }
     all
+}
+
+/// The scales a level's candidates are verified at: those that make the
+/// two bandwidths alike ([`ALIKE_TOLERANCE`] about `scale`), widened by
+/// [`SCALE_READING`] for the candidates' rough readings of scale.
+fn around(scale: f64) -> [f64; 2] {
+    let k = ALIKE_TOLERANCE * SCALE_READING;
+    [scale / k, scale * k]
 }
 
 /// `p` smoothed `widen` times wider, unless it would then span too few

@@ -137,6 +137,20 @@ fn match_thinned(
 /// similarities as grown and lifted ([`match_across_rates`] adds the
 /// thinned match and the polish).
 pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> Vec<Hypothesis> {
+    match_prepared_within(pa, pb, None, config)
+}
+
+/// [`match_prepared`] verifying only the candidates whose scale (B onto A)
+/// may lie within `scales` (`[least, most]`): a ZNCC candidate's scale is
+/// read from the arc lengths of its aligned ranges, a turn pair's is
+/// exact. Where the caller keeps only hypotheses of a known scale range
+/// ([`alike`]), the others' verification is not paid for.
+pub fn match_prepared_within(
+    pa: &PreparedPath,
+    pb: &PreparedPath,
+    scales: Option<[f64; 2]>,
+    config: &Config,
+) -> Vec<Hypothesis> {
     if pa.signature.len() < 3 || pb.signature.len() < 3 {
         return Vec::new();
     }
@@ -165,19 +179,25 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
         .iter()
         .filter_map(|c| c.swapped(sb.len())),
     );
+    // A scale not read (NaN) is kept.
+    let within = |scale: f64| scales.is_none_or(|[lo, hi]| !(scale < lo || scale > hi));
     candidates.sort_by(|x, y| y.strength.total_cmp(&x.strength));
     // Turn pairs: proposals that do not depend on aligning K.
     let tc = &config.turns;
-    let proposals = propose(
+    let mut proposals = propose(
         &turns(&pa.track, &pa.signature, tc),
         &turns(&pb.track, &pb.signature, tc),
         tc,
     );
+    proposals.retain(|p| within(p.a_T_b.scale));
     // Geometry decides, on every core: the strongest ZNCC candidates and
     // the turn-pair proposals, verified the same way.
     let xy = [pb.points(false), pb.points(true)];
+    // The budget is spent as without `scales`; the candidates out of them
+    // are then dropped unverified.
     let jobs: Vec<Job> = worth_verifying(&candidates, config)
         .into_iter()
+        .filter(|c| within(candidate_scale(sa, sb, c)))
         .map(Job::Zncc)
         .chain(proposals.iter().map(Job::Turns))
         .collect();
@@ -208,6 +228,29 @@ pub fn match_prepared(pa: &PreparedPath, pb: &PreparedPath, config: &Config) -> 
         config.min_score,
         Duplicates::Alignment,
     )
+}
+
+/// Scale of a ZNCC candidate (B onto A): the arc length of its target
+/// range over its query range's. Aligned in `K`, a true overlap's ranges
+/// differ in length by the similarity's scale (up to the smoothing); an
+/// empty range reads as any scale.
+fn candidate_scale(
+    sa: &crate::signature::Signature,
+    sb: &crate::signature::Signature,
+    c: &crate::matching::Candidate,
+) -> f64 {
+    let clamp = |t: i64| t.clamp(0, sa.len() as i64 - 1) as usize;
+    let (t0, t1) = (
+        clamp(c.target_of(c.query[0])),
+        clamp(c.target_of(c.query[1])),
+    );
+    let along_a = (sa.s[t0] - sa.s[t1]).abs();
+    let along_b = sb.s[c.query[1]] - sb.s[c.query[0]];
+    if along_a > 0.0 && along_b > 0.0 {
+        along_a / along_b
+    } else {
+        f64::NAN
+    }
 }
 
 /// The shape candidates to verify under `config`'s budget.

@@ -13,6 +13,7 @@ use nalgebra::Vector3;
 
 use super::{match_across_rates, Config, PreparedPath};
 use crate::geometry::Similarity3;
+use crate::matching::turn_index::TurnIndex;
 use crate::{Hypothesis, Result, Trajectory};
 
 /// Weakest best score that makes an overlap an edge. Over every kind of
@@ -82,25 +83,59 @@ pub struct Placement {
     pub contradicted: Vec<Overlap>,
 }
 
+/// Partners each path is matched with at least: the ones sharing the most
+/// turn triples with it ([`TurnIndex`]). 4: a placement needs one right
+/// overlap per path and a second to corroborate a weak one, and a path's
+/// overlaps with others are usually also reached through them; every
+/// extra partner costs a full match per path. Sets of up to five paths
+/// are matched in every pair.
+pub const PARTNERS: usize = 4;
+
 /// Places every path of `paths` in the frame of the first (see the module
 /// doc). Fails when a path cannot be prepared (too short, no motion).
 pub fn merge_many(paths: &[Trajectory], config: &Config) -> Result<Placement> {
-    let prepared = paths
-        .iter()
-        .map(|p| PreparedPath::new(p, config))
+    let prepared = crate::parallel::map(paths, |p| Some(PreparedPath::new(p, config)))
+        .into_iter()
         .collect::<Result<Vec<_>>>()?;
-    let mut edges = Vec::new();
-    for a in 0..paths.len() {
-        for b in a + 1..paths.len() {
-            let best = match_across_rates(&paths[a], &paths[b], &prepared[a], &prepared[b], config)
-                .into_iter()
-                .next();
-            if let Some(hypothesis) = best.filter(|h| h.score >= MIN_OVERLAP_SCORE) {
-                edges.push(Overlap { a, b, hypothesis });
-            }
+    let pairs = pairs_to_match(&prepared, config);
+    let edges = crate::parallel::map(&pairs, |&(a, b)| {
+        match_across_rates(&paths[a], &paths[b], &prepared[a], &prepared[b], config)
+            .into_iter()
+            .next()
+            .filter(|h| h.score >= MIN_OVERLAP_SCORE)
+            .map(|hypothesis| Overlap { a, b, hypothesis })
+    });
+    Ok(place(paths, edges))
+}
+
+/// The pairs worth a full match, `a < b`, in order: each path with its
+/// [`PARTNERS`] partners sharing the most turn triples (then pairs of
+/// turns: what ranks paths of fewer than three turns).
+pub fn pairs_to_match(prepared: &[PreparedPath], config: &Config) -> Vec<(usize, usize)> {
+    let n = prepared.len();
+    let turns: Vec<_> = prepared
+        .iter()
+        .map(|p| crate::matching::turns::turns(&p.track, &p.signature, &config.turns))
+        .collect();
+    let index = TurnIndex::new(&turns);
+    let votes: Vec<Vec<usize>> = (0..n).map(|p| index.votes(p)).collect();
+    let pair_votes: Vec<Vec<usize>> = (0..n).map(|p| index.pair_votes(p)).collect();
+    let mut chosen = std::collections::BTreeSet::new();
+    for a in 0..n {
+        let mut partners: Vec<usize> = (0..n).filter(|&b| b != a).collect();
+        // Both directions' votes, each path's triples found in the other;
+        // pairs of turns break ties (and rank paths of few turns).
+        partners.sort_by_key(|&b| {
+            std::cmp::Reverse((
+                votes[a][b] + votes[b][a],
+                pair_votes[a][b] + pair_votes[b][a],
+            ))
+        });
+        for &b in partners.iter().take(PARTNERS) {
+            chosen.insert((a.min(b), a.max(b)));
         }
     }
-    Ok(place(paths, edges))
+    chosen.into_iter().collect()
 }
 
 /// The placement through `edges` (see the module doc): strongest first,
