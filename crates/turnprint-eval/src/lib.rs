@@ -14,6 +14,7 @@ pub mod data;
 pub mod drift;
 pub mod kinds;
 pub mod loops;
+pub mod many;
 pub mod merge;
 pub mod report;
 pub mod revisits;
