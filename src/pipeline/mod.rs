@@ -14,6 +14,7 @@ pub mod placement;
 pub mod prepare;
 pub mod proximity;
 pub mod rank;
+pub mod refine;
 pub mod resolution;
 pub mod verify;
 

@@ -3,7 +3,8 @@
 //! through the strongest overlap whose placement the path's other overlaps
 //! with placed paths do not contradict (a wrong pairwise merge disagrees
 //! with the cycles it closes). A path that overlaps no placed path is left
-//! out, never forced.
+//! out, never forced. The placement is then refined jointly over all the
+//! overlaps it agrees with ([`super::refine`]).
 //!
 //! With `first_T_u` the placement of a placed path `u` and `u_T_v` an
 //! overlap's similarity (`p_u = s R p_v + t`), path `v` is placed at
@@ -49,7 +50,7 @@ pub struct Overlap {
 
 impl Overlap {
     /// `from_T_to` of the overlap seen from path `from` (one of its ends).
-    fn seen_from(&self, from: usize) -> Similarity3 {
+    pub fn seen_from(&self, from: usize) -> Similarity3 {
         let a_t_b = self.hypothesis.similarity();
         if from == self.a {
             a_t_b
@@ -59,7 +60,7 @@ impl Overlap {
     }
 
     /// The other end of the overlap.
-    fn other(&self, end: usize) -> usize {
+    pub fn other(&self, end: usize) -> usize {
         if end == self.a {
             self.b
         } else {
@@ -79,6 +80,9 @@ pub struct Placement {
     pub via: Vec<Option<usize>>,
     /// The overlaps that placed a path, in the order they did.
     pub used: Vec<Overlap>,
+    /// Overlaps between placed paths that agree with the placement (each
+    /// path's other overlaps, beside the one that placed it).
+    pub agreeing: Vec<Overlap>,
     /// Overlaps whose placement contradicted the one chosen.
     pub contradicted: Vec<Overlap>,
 }
@@ -105,7 +109,10 @@ pub fn merge_many(paths: &[Trajectory], config: &Config) -> Result<Placement> {
             .filter(|h| h.score >= MIN_OVERLAP_SCORE)
             .map(|hypothesis| Overlap { a, b, hypothesis })
     });
-    Ok(place(paths, edges))
+    let mut placement = place(paths, edges);
+    let overlaps: Vec<&Overlap> = placement.used.iter().chain(&placement.agreeing).collect();
+    placement.frames = super::refine::refine(paths, &placement.frames, &overlaps);
+    Ok(placement)
 }
 
 /// The pairs worth a full match, `a < b`, in order: each path with its
@@ -146,6 +153,7 @@ fn place(paths: &[Trajectory], mut edges: Vec<Overlap>) -> Placement {
         frames: vec![None; n],
         via: vec![None; n],
         used: Vec::new(),
+        agreeing: Vec::new(),
         contradicted: Vec::new(),
     };
     if n == 0 {
@@ -177,8 +185,10 @@ fn place(paths: &[Trajectory], mut edges: Vec<Overlap>) -> Placement {
             continue;
         };
         // The path's other overlaps with placed paths, each a placement
-        // of its own: the strongest is kept unless more of them disagree
-        // with it than agree.
+        // of its own: the strongest is kept unless those that disagree
+        // with it outweigh it and those that agree, by score. Counted one
+        // each, a single weak look-alike (with a path that shares no road
+        // with it) turned a strong right overlap away.
         let points = sample(&paths[v]);
         let (mut agree, mut disagree) = (Vec::new(), Vec::new());
         for (i, other) in edges.iter().enumerate() {
@@ -193,7 +203,8 @@ fn place(paths: &[Trajectory], mut edges: Vec<Overlap>) -> Placement {
                 }
             }
         }
-        if disagree.len() > agree.len() {
+        let weight = |ids: &[usize]| ids.iter().map(|&i| edges[i].hypothesis.score).sum::<f64>();
+        if weight(&disagree) > e.hypothesis.score + weight(&agree) {
             placement.contradicted.push(e);
             continue;
         }
@@ -208,6 +219,8 @@ fn place(paths: &[Trajectory], mut edges: Vec<Overlap>) -> Placement {
             let other = edges.remove(i);
             if disagree.contains(&i) {
                 placement.contradicted.push(other);
+            } else {
+                placement.agreeing.push(other);
             }
         }
         placement.via[v] = Some(e.other(v));
@@ -333,5 +346,53 @@ mod tests {
         assert_eq!(placement.via[..3], [None, Some(0), Some(1)]);
         let strangers = placement.frames[3..].iter().filter(|f| f.is_some()).count();
         assert_eq!(strangers, 0, "strangers placed");
+    }
+
+    /// A window turned a little off its overlaps (within the agreement of
+    /// two placements) is pulled back by the joint refinement; the first
+    /// stays where it is.
+    #[test]
+    fn a_path_turned_off_its_overlaps_is_pulled_back_by_the_refinement() {
+        let drive = wander(11, 5000);
+        let windows = [0..3200, 1500..4000, 2400..5000];
+        let moves = [
+            (1.0, 0.0, Vector3::zeros()),
+            (3.0, 0.7, Vector3::new(40.0, 10.0, 0.0)),
+            (0.2, -1.9, Vector3::new(-5.0, 9.0, 0.0)),
+        ];
+        let paths: Vec<Trajectory> = windows
+            .iter()
+            .zip(&moves)
+            .map(|(w, &(s, a, t))| {
+                Trajectory::from_positions("w", &moved(&drive[w.clone()], s, a, t))
+            })
+            .collect();
+        let placement = merge_many(&paths, &Config::for_matching()).expect("placement");
+        assert!(placement.frames.iter().all(Option::is_some), "all placed");
+        let overlaps: Vec<&Overlap> = placement.used.iter().chain(&placement.agreeing).collect();
+        assert!(overlaps.len() >= 3, "the third window overlaps both others");
+        // The last window turned by 1° about the first window's origin.
+        let mut frames = placement.frames.clone();
+        let turn = Similarity3 {
+            scale: 1.0,
+            rotation: *Rotation3::from_axis_angle(&Vector3::z_axis(), 1f64.to_radians()).matrix(),
+            translation: Vector3::zeros(),
+        };
+        frames[2] = Some(turn.compose(&frames[2].unwrap()));
+        let error = |frames: &[Option<Similarity3>], k: usize| {
+            placed_error(
+                frames[k].as_ref().unwrap(),
+                &paths[k].positions(),
+                &drive[windows[k].clone()],
+            )
+        };
+        let off = error(&frames, 2);
+        let refined = super::super::refine::refine(&paths, &frames, &overlaps);
+        assert!(
+            error(&refined, 2) < 0.25 * off,
+            "{} of {off}",
+            error(&refined, 2)
+        );
+        assert_eq!(refined[0], frames[0]);
     }
 }
