@@ -348,6 +348,34 @@ mod tests {
         assert_eq!(strangers, 0, "strangers placed");
     }
 
+    /// The overlap of `b` into `a` with this score, shifting `b` by `shift`.
+    fn overlap(a: usize, b: usize, score: f64, shift: f64) -> Overlap {
+        let mut hypothesis = Hypothesis::scored(score, [0, 10], [0, 10], false);
+        hypothesis.translation = Vector3::new(shift, 0.0, 0.0);
+        Overlap { a, b, hypothesis }
+    }
+
+    /// Regression: a path's strong right overlap (score 0.4) was turned
+    /// away because one weak look-alike with another placed path (0.15)
+    /// disagreed and none agreed: overlaps were counted, not weighed.
+    #[test]
+    fn a_single_weak_look_alike_does_not_turn_a_strong_overlap_away() {
+        let drive = wander(3, 900);
+        let paths: Vec<Trajectory> = [0..400, 250..650, 500..900]
+            .into_iter()
+            .map(|w| Trajectory::from_positions("w", &drive[w]))
+            .collect();
+        let edges = vec![
+            overlap(0, 1, 0.5, 0.0),
+            overlap(1, 2, 0.4, 0.0),
+            overlap(0, 2, 0.15, 1000.0),
+        ];
+        let placement = place(&paths, edges);
+        assert_eq!(placement.via, [None, Some(0), Some(1)]);
+        assert_eq!(placement.frames[2], Some(Similarity3::identity()));
+        assert_eq!(placement.contradicted.len(), 1);
+    }
+
     /// A window turned a little off its overlaps (within the agreement of
     /// two placements) is pulled back by the joint refinement; the first
     /// stays where it is.
