@@ -8,6 +8,7 @@
 //! ```
 
 pub mod alike;
+pub mod coincidence;
 pub mod config;
 pub mod merge;
 pub mod placement;
@@ -305,6 +306,7 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
         }
     });
     let mut hypotheses = Vec::new();
+    let extent = crate::geometry::extent(&pa.positions);
     for v in &verified {
         let h = to_hypothesis(pa, pa, v, 0.0, true);
         let s = match &config.drift_prior {
@@ -313,14 +315,10 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
                 let between = (track.s[track.grid_of_pose(h.a_range[0]) as usize]
                     - track.s[track.grid_of_pose(h.b_range[1]) as usize])
                     .abs();
-                let p = prior.factor(
-                    h.rotation_angle(),
-                    h.scale,
-                    median_offset(pa, &h),
-                    length,
-                    between,
-                );
+                let offset = median_offset(pa, &h);
+                let p = prior.factor(h.rotation_angle(), h.scale, offset, length, between);
                 loop_score(&v.evidence, p, &config.score)
+                    * coincidence::coincidence_factor(offset, extent)
             }
             None => score(&v.evidence, &config.score),
         };
