@@ -102,8 +102,13 @@ pub fn merge_many(paths: &[Trajectory], config: &Config) -> Result<Placement> {
         .into_iter()
         .collect::<Result<Vec<_>>>()?;
     let pairs = pairs_to_match(&prepared, config);
+    // Only a pair's best overlap is an edge: only it is ranked and polished.
+    let best_only = Config {
+        top_k: 1,
+        ..config.clone()
+    };
     let edges = crate::parallel::map(&pairs, |&(a, b)| {
-        match_across_rates(&paths[a], &paths[b], &prepared[a], &prepared[b], config)
+        match_across_rates(&paths[a], &paths[b], &prepared[a], &prepared[b], &best_only)
             .into_iter()
             .next()
             .filter(|h| h.score >= MIN_OVERLAP_SCORE)
