@@ -191,9 +191,9 @@ fn place(paths: &[Trajectory], mut edges: Vec<Overlap>) -> Placement {
         };
         // The path's other overlaps with placed paths, each a placement
         // of its own: the strongest is kept unless those that disagree
-        // with it outweigh it and those that agree, by score. Counted one
-        // each, a single weak look-alike (with a path that shares no road
-        // with it) turned a strong right overlap away.
+        // with it outweigh it and those that agree, by score, so that one
+        // weak look-alike (often with a path that shares no road with this
+        // one) cannot outvote a strong overlap.
         let points = sample(&paths[v]);
         let (mut agree, mut disagree) = (Vec::new(), Vec::new());
         for (i, other) in edges.iter().enumerate() {

@@ -39,7 +39,7 @@
 //!   its extent (not its length: a hand-held camera walks 150 m in a 5 m
 //!   room, and TUM-VI room2 placed upside down at 0.84 times its size lies
 //!   within 1 % of its length but 33 % of its extent) of its truth in the
-//!   common frame (the first session's, which is its own truth), and when
+//!   common frame (the first recording's, which is its own truth), and when
 //!   left out exactly if no chain of sessions sharing road (at least
 //!   [`SET_SHARE`] of the shorter one's length) joins it to the first.
 
