@@ -16,6 +16,8 @@ use turnprint_eval::kinds::{evaluate, Kind, KindsOptions};
 enum WhatArg {
     Merge,
     Loops,
+    /// The loops, and the online detector replaying each loop input.
+    Online,
     All,
 }
 
@@ -73,8 +75,9 @@ fn main() -> ExitCode {
         negatives: args.negatives,
         loop_seeds: args.loop_seeds,
         kinds,
-        merge: args.what != WhatArg::Loops,
+        merge: matches!(args.what, WhatArg::Merge | WhatArg::All),
         loops: args.what != WhatArg::Merge,
+        online: args.what == WhatArg::Online,
     };
     match evaluate(&opts) {
         Ok(report) if args.json => {

@@ -1,4 +1,5 @@
-//! Loop runs of every kind that revisits: `find_loops` and the naive
+//! Loop runs of every kind that revisits: `find_loops`, the online
+//! detector replaying the same input pose by pose, and the naive
 //! nearest-earlier-position baseline on each judged session, scored against
 //! the revisit events of its truth.
 //!
@@ -24,6 +25,7 @@ use crate::loops::{covered, query_range, TOP_K};
 use crate::revisits::{arc_lengths, events, nearest_earlier_apart, true_offset, Event};
 use crate::similarity::random_similarity;
 use crate::EVENT_MAX_GAP;
+use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint::pipeline::{find_loops, Config};
 use turnprint::Trajectory;
 
@@ -90,6 +92,26 @@ pub struct LoopRun {
     pub seconds: f64,
     /// `find_loops` failed, with its message (counted as no loops).
     pub error: Option<String>,
+    /// The online detector on the same input, when asked for.
+    pub online: Option<OnlineRun>,
+}
+
+/// The online detector's candidates on one input, judged like the loops.
+#[derive(Debug, Clone, Serialize)]
+pub struct OnlineRun {
+    /// Events a correct candidate touches (every candidate counts: the
+    /// detector emits them as the path grows, not as one ranked list).
+    pub covered: usize,
+    /// Candidates emitted.
+    pub candidates: usize,
+    /// Correct candidates among them.
+    pub correct: usize,
+    /// Each candidate, in order of emission: the claim, its verdict, the
+    /// true median offset between its passes in revisit radii, the search
+    /// that found it.
+    pub claims: Vec<(LoopClaim, bool, f64, String)>,
+    /// Wall time (s) of the replay.
+    pub seconds: f64,
 }
 
 /// The revisit events of a truth by the scale-free rules of the module,
@@ -116,9 +138,10 @@ pub fn inputs(s: &Session) -> Vec<Input> {
     }
 }
 
-/// Runs both methods on one session and input; `None` when the session is
-/// not judged or its truth has no revisit event.
-pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
+/// Runs both methods (and the online detector when `online`) on one
+/// session and input; `None` when the session is not judged or its truth
+/// has no revisit event.
+pub fn run(s: &Session, input: Input, seed: u64, online: bool) -> Option<LoopRun> {
     if !s.judged {
         return None;
     }
@@ -126,25 +149,8 @@ pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
     if events.is_empty() {
         return None;
     }
-    let mut rng = StdRng::seed_from_u64(seed);
     let arc = arc_lengths(&s.truth);
-    let length = arc.last().copied().unwrap_or(0.0);
-    let positions = match input {
-        Input::Truth | Input::Estimate => s.input.clone(),
-        Input::Walk => {
-            DriftModel::over_length(length, WALK_HEADING, WALK_LOG_SCALE).apply(&s.truth, &mut rng)
-        }
-        Input::Bias => {
-            let sign = |rng: &mut StdRng| if rng.random::<bool>() { 1.0 } else { -1.0 };
-            DriftBias {
-                heading_rad: sign(&mut rng) * BIAS_HEADING,
-                log_scale: sign(&mut rng) * BIAS_LOG_SCALE,
-            }
-            .apply(&s.truth)
-        }
-    };
-    let sim = random_similarity(&mut rng, extent(&positions).max(f64::MIN_POSITIVE));
-    let positions: Vec<_> = positions.iter().map(|p| sim.apply(p)).collect();
+    let positions = input_positions(s, input, seed);
 
     let mut config = Config::for_loops();
     config.top_k = TOP_K;
@@ -161,6 +167,8 @@ pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
 
     let judge = |c: &[LoopClaim]| judge(c, &s.truth, &arc, &events, radius);
     let (t, n) = (judge(&claims), judge(&naive));
+    let offset = |c: &LoopClaim| true_offset(c.query, c.matched, &s.truth) / radius;
+    let online = online.then(|| run_online(&positions, judge, offset));
     Some(LoopRun {
         kind: s.kind,
         session: s.name.clone(),
@@ -173,11 +181,68 @@ pub fn run(s: &Session, input: Input, seed: u64) -> Option<LoopRun> {
         loops: claims
             .iter()
             .zip(&t.3)
-            .map(|(c, ok)| (*c, *ok, true_offset(c.query, c.matched, &s.truth) / radius))
+            .map(|(c, ok)| (*c, *ok, offset(c)))
             .collect(),
         seconds,
         error,
+        online,
     })
+}
+
+/// The input a loop run is given: the estimate, or the truth as it is,
+/// under a random walk or under a bias; then under a random similarity.
+fn input_positions(s: &Session, input: Input, seed: u64) -> Vec<Vector3<f64>> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let length = arc_lengths(&s.truth).last().copied().unwrap_or(0.0);
+    let positions = match input {
+        Input::Truth | Input::Estimate => s.input.clone(),
+        Input::Walk => {
+            DriftModel::over_length(length, WALK_HEADING, WALK_LOG_SCALE).apply(&s.truth, &mut rng)
+        }
+        Input::Bias => {
+            let sign = |rng: &mut StdRng| if rng.random::<bool>() { 1.0 } else { -1.0 };
+            DriftBias {
+                heading_rad: sign(&mut rng) * BIAS_HEADING,
+                log_scale: sign(&mut rng) * BIAS_LOG_SCALE,
+            }
+            .apply(&s.truth)
+        }
+    };
+    let sim = random_similarity(&mut rng, extent(&positions).max(f64::MIN_POSITIVE));
+    positions.iter().map(|p| sim.apply(p)).collect()
+}
+
+/// Replays `positions` through the online detector, one pose at a time
+/// (the caller waits for the matcher, so the candidates do not depend on
+/// timing), and judges every candidate.
+fn run_online(
+    positions: &[Vector3<f64>],
+    judge: impl Fn(&[LoopClaim]) -> (usize, usize, usize, Vec<bool>),
+    offset: impl Fn(&LoopClaim) -> f64,
+) -> OnlineRun {
+    let start = Instant::now();
+    let mut detector = Detector::new(OnlineConfig::default(), Overflow::Block);
+    let mut events = Vec::new();
+    for p in positions {
+        detector.push(&PoseInput::at(*p));
+        events.extend(detector.poll());
+    }
+    events.extend(detector.finish().0);
+    let seconds = start.elapsed().as_secs_f64();
+    let claims: Vec<LoopClaim> = events.iter().map(|e| (&e.hypothesis).into()).collect();
+    let (covered, candidates, correct, ok) = judge(&claims);
+    OnlineRun {
+        covered,
+        candidates,
+        correct,
+        claims: claims
+            .into_iter()
+            .zip(ok)
+            .zip(&events)
+            .map(|((c, ok), e)| (c, ok, offset(&c), e.source.name().to_string()))
+            .collect(),
+        seconds,
+    }
 }
 
 /// Scores ranked claims on a truth (`arc`: its cumulative length): the events a correct claim's query

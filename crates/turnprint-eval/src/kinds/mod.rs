@@ -133,6 +133,8 @@ pub struct KindsOptions {
     pub merge: bool,
     /// Run the loops.
     pub loops: bool,
+    /// Replay each loop run's input through the online detector too.
+    pub online: bool,
 }
 
 impl Default for KindsOptions {
@@ -147,6 +149,7 @@ impl Default for KindsOptions {
             kinds: Vec::new(),
             merge: true,
             loops: true,
+            online: false,
         }
     }
 }
@@ -231,7 +234,7 @@ pub fn evaluate(opts: &KindsOptions) -> turnprint::Result<report::KindsReport> {
                     .seed
                     .wrapping_mul(1_000_003)
                     .wrapping_add(k as u64 * 101 + n);
-                report.loops.extend(loops::run(s, input, seed));
+                report.loops.extend(loops::run(s, input, seed, opts.online));
                 bar.inc(1);
             }
         }

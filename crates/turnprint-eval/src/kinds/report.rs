@@ -7,7 +7,7 @@ use std::fmt::Write;
 
 use serde::Serialize;
 
-use super::loops::{Input, LoopRun};
+use super::loops::{Input, LoopRun, OnlineRun};
 use super::merge::{How, MergeCase, Negative};
 use super::Kind;
 use crate::auc::roc_auc;
@@ -158,6 +158,44 @@ impl KindsReport {
         out
     }
 
+    /// The online detector's table: one row per kind and input that was
+    /// replayed, and one per input for all, beside `find_loops`' coverage.
+    pub fn online_table(&self) -> String {
+        let mut out = String::from(
+            "| kind | input | runs | events | events covered: online | batch (top 10) | candidates | correct | share correct |\n\
+             |---|---|--:|--:|--:|--:|--:|--:|--:|\n",
+        );
+        let inputs = [Input::Truth, Input::Walk, Input::Bias, Input::Estimate];
+        for (name, kind) in rows() {
+            for input in inputs {
+                let runs: Vec<(&LoopRun, &OnlineRun)> = self
+                    .loops
+                    .iter()
+                    .filter(|r| kind.is_none_or(|k| k == r.kind) && r.input == input)
+                    .filter_map(|r| Some((r, r.online.as_ref()?)))
+                    .collect();
+                if runs.is_empty() {
+                    continue;
+                }
+                let events: usize = runs.iter().map(|(r, _)| r.events).sum();
+                let sum = |f: &dyn Fn(&LoopRun, &OnlineRun) -> usize| {
+                    runs.iter().map(|(r, o)| f(r, o)).sum::<usize>()
+                };
+                let (candidates, correct) = (sum(&|_, o| o.candidates), sum(&|_, o| o.correct));
+                let _ = writeln!(
+                    out,
+                    "| {name} | {} | {} | {events} | {} | {} | {candidates} | {correct} | {} |",
+                    input.name(),
+                    runs.len(),
+                    pct(sum(&|_, o| o.covered), events),
+                    pct(sum(&|r, _| r.covered[0]), events),
+                    pct(correct, candidates),
+                );
+            }
+        }
+        out
+    }
+
     /// All tables with the sessions read and the files left out.
     pub fn markdown(&self) -> String {
         let mut out = String::new();
@@ -169,6 +207,9 @@ impl KindsReport {
         }
         if !self.loops.is_empty() {
             let _ = writeln!(out, "{}", self.loop_table());
+        }
+        if self.loops.iter().any(|r| r.online.is_some()) {
+            let _ = writeln!(out, "{}", self.online_table());
         }
         let absent = self
             .skipped
