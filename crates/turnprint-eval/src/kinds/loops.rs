@@ -290,6 +290,33 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_online_replay_is_judged_like_the_loops() {
+        // A square driven three times, streamed as it is: the detector
+        // finds its revisits, and its candidates are judged by the loop
+        // rules.
+        let lap = crate::test_paths::square_loop(0, 0.0);
+        let path: Vec<Vector3<f64>> = lap.iter().chain(&lap).chain(&lap).copied().collect();
+        let s = Session {
+            kind: Kind::Car,
+            name: "square".into(),
+            recording: "square".into(),
+            frame: None,
+            input: path.clone(),
+            truth: path,
+            judged: true,
+        };
+        let r = run(&s, Input::Truth, 1, true).expect("the drive revisits");
+        let o = r.online.expect("replayed");
+        assert!(
+            r.events > 0 && o.covered > 0 && o.covered <= r.events,
+            "{o:?}"
+        );
+        assert!(o.correct > 0 && o.correct <= o.candidates, "{o:?}");
+        assert_eq!(o.claims.len(), o.candidates);
+        assert_eq!(o.claims.iter().filter(|c| c.1).count(), o.correct);
+    }
+
+    #[test]
     fn a_square_driven_twice_has_one_event_at_any_scale() {
         for unit in [0.01, 1.0, 100.0] {
             let path: Vec<_> = crate::test_paths::square_loop(0, 0.0)
