@@ -2,17 +2,22 @@
 //! end to end (loop search included) and the graph solve alone, and the
 //! online detector's re-optimisation after one new loop on a 10 000-pose
 //! drive whose earlier loops were kept before (`correct_again`), each also
-//! with 2000 even nodes (the graph's former size) for comparison. Real data
-//! from `TURNPRINT_DATA` (default `../shared/data`); those benches are
-//! skipped with a message when it is absent.
+//! with 2000 even nodes (the graph's former size) for comparison; and the
+//! latency of `push` on the caller's thread while the correction's thread
+//! solves (printed as a histogram). Real data from `TURNPRINT_DATA`
+//! (default `../shared/data`); those benches are skipped with a message
+//! when it is absent.
 
 use std::hint::black_box;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use turnprint::correct::{correct, correct_again, correct_with_loops, CorrectConfig, LoopClosure};
 use turnprint::io::{read_trajectory, Format};
+use turnprint::online::correction::LoopInput;
 use turnprint::online::synthetic::CityDrive;
+use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint::{find_loops, Pose, Trajectory};
 
 fn mulls_00() -> Option<Trajectory> {
@@ -105,9 +110,77 @@ fn bench_online(c: &mut Criterion) {
     }
 }
 
+/// Pose period of the paced replay: 200 µs, 5000 poses a second (KITTI's
+/// 10 Hz five hundred times over), so that the correction's thread, whose
+/// solves take tens to hundreds of milliseconds, runs through most of the
+/// drive.
+const PACE: Duration = Duration::from_micros(200);
+
+/// `push` latencies over MULLS 00 streamed with drift correction from every
+/// candidate (the live policy, `Overflow::MergeLatest`), paced at [`PACE`]:
+/// those of the pushes between the first candidate and the last
+/// correction event, when the correction's thread has a solve running or
+/// queued, and the count of corrections. Printed, not timed by criterion:
+/// a p99 is the figure.
+fn bench_push_while_correcting(_c: &mut Criterion) {
+    let Some(est) = mulls_00() else { return };
+    let points = est.positions();
+    let (mut during, mut corrections) = (Vec::new(), 0usize);
+    for _ in 0..5 {
+        let mut d = Detector::new(OnlineConfig::default(), Overflow::MergeLatest)
+            .with_correction(CorrectConfig::default(), LoopInput::Candidates);
+        let mut lat = Vec::with_capacity(points.len());
+        let (mut first_candidate, mut last_candidate, mut last_correction) = (None, 0, 0);
+        let start = Instant::now();
+        for (i, p) in points.iter().enumerate() {
+            while start.elapsed() < PACE * i as u32 {
+                std::hint::spin_loop();
+            }
+            let t = Instant::now();
+            d.push(&PoseInput::at(*p));
+            lat.push(t.elapsed().as_nanos() as f64);
+            if !d.poll().is_empty() {
+                first_candidate.get_or_insert(i);
+                last_candidate = i;
+            }
+            let n = d.poll_corrections().len();
+            if n > 0 {
+                corrections += n;
+                last_correction = i;
+            }
+        }
+        // After the last candidate the correction's thread is busy to the
+        // end of the pushes, or until its last event.
+        if let Some(from) = first_candidate {
+            let to = match last_correction > last_candidate {
+                true => last_correction,
+                false => lat.len() - 1,
+            };
+            during.extend_from_slice(&lat[from..=to]);
+        }
+        black_box(d.finish());
+    }
+    if during.is_empty() {
+        println!("push while correcting: no candidate arrived");
+        return;
+    }
+    during.sort_by(f64::total_cmp);
+    let q = |f: f64| during[((during.len() - 1) as f64 * f).round() as usize];
+    println!(
+        "push while the correction solves, MULLS 00 x5 paced at {} µs ({} pushes, {} corrections): p50 {:.0} ns, p99 {:.0} ns, p99.9 {:.0} ns, max {:.0} ns",
+        PACE.as_micros(),
+        during.len(),
+        corrections,
+        q(0.5),
+        q(0.99),
+        q(0.999),
+        during[during.len() - 1]
+    );
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10);
-    targets = bench_batch, bench_online
+    targets = bench_batch, bench_online, bench_push_while_correcting
 }
 criterion_main!(benches);
