@@ -258,7 +258,10 @@ fn admit(
         .map(|id| kept.get(id).copied().unwrap_or(false) && has_edges(id))
         .collect();
     let count = before.iter().filter(|k| **k).count();
-    let mut warm = false;
+    // Where loops were tried before and none kept, there is nothing to
+    // enter together: the path stands as it was, and those loops are
+    // tried again only if a new one is accepted, as after a warm start.
+    let mut warm = count == 0 && !kept.is_empty() && !retry;
     if count > 0 {
         let next = solve::optimise(graph, &solution, &before, config.max_iterations)?;
         let c = cost(&next, &before);
