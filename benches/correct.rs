@@ -1,7 +1,8 @@
 //! Drift-correction speed: `correct` on KITTI 00's drifting MULLS estimate
 //! end to end (loop search included) and the graph solve alone, and the
 //! online detector's re-optimisation after one new loop on a 10 000-pose
-//! drive whose earlier loops were kept before (`correct_again`), each also
+//! drive whose earlier loops were tried before, from the correction before
+//! it (`correct_again_from`), each also
 //! with 2000 even nodes (the graph's former size) for comparison; and the
 //! latency of `push` on the caller's thread while the correction's thread
 //! solves (printed as a histogram). Real data from `TURNPRINT_DATA`
@@ -13,7 +14,9 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use turnprint::correct::{correct, correct_again, correct_with_loops, CorrectConfig, LoopClosure};
+use turnprint::correct::{
+    correct, correct_again_from, correct_with_loops, CorrectConfig, LoopClosure,
+};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::correction::LoopInput;
 use turnprint::online::synthetic::CityDrive;
@@ -118,7 +121,9 @@ fn bench_reoptimisation(c: &mut Criterion, rate: f64) {
             kept.len()
         );
         c.bench_function(&name, |b| {
-            b.iter(|| correct_again(black_box(&path), &loops, &kept, &config).unwrap())
+            b.iter(|| {
+                correct_again_from(black_box(&path), &loops, &kept, Some(&before), &config).unwrap()
+            })
         });
     }
 }

@@ -4,7 +4,9 @@
 #![cfg(feature = "correct")]
 
 use nalgebra::Vector3;
-use turnprint::correct::{correct, correct_with_loops, CorrectConfig, LoopClosure};
+use turnprint::correct::{
+    correct, correct_again, correct_again_from, correct_with_loops, CorrectConfig, LoopClosure,
+};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::Trajectory;
 use turnprint_eval::ape::{ape, Alignment};
@@ -46,6 +48,40 @@ fn correct_reduces_the_ape_of_lidar_odometry_without_loop_closure() {
     }
     // The first pose stays where it was.
     assert!((corrected.poses[0].position - est.poses[0].position).norm() < 1e-6);
+}
+
+/// A re-optimisation started from the correction before it (as the online
+/// correction's thread does) keeps and rejects the same loops and reaches
+/// the same path as one started from the path as it was.
+#[test]
+fn a_correction_started_from_the_one_before_reaches_the_same_path() {
+    let Some(est) = kitti("odometry/kitti_mulls_dso/mulls_no_loop/00.txt") else {
+        return;
+    };
+    let config = CorrectConfig::default();
+    let loops: Vec<LoopClosure> = turnprint::find_loops(&est, &config.loops)
+        .expect("loops")
+        .iter()
+        .map(|h| LoopClosure::from_hypothesis(&est, h).expect("a loop"))
+        .collect();
+    let n = loops.len();
+    assert!(n >= 2, "{n} loops");
+    let before = correct_with_loops(&est, &loops[..n - 1], &config).expect("corrects");
+    let kept: Vec<bool> = before.loops.iter().map(|l| l.kept).collect();
+    let cold = correct_again(&est, &loops, &kept, &config).expect("corrects");
+    let warm = correct_again_from(&est, &loops, &kept, Some(&before), &config).expect("corrects");
+    let verdicts = |c: &turnprint::correct::Corrected| -> Vec<bool> {
+        c.loops.iter().map(|l| l.kept).collect()
+    };
+    assert_eq!(verdicts(&cold), verdicts(&warm));
+    let length = turnprint::correct::graph::arc_length(&est.positions())[est.len() - 1];
+    let apart = cold
+        .poses
+        .iter()
+        .zip(&warm.poses)
+        .map(|(a, b)| (a.position - b.position).norm())
+        .fold(0.0, f64::max);
+    assert!(apart < 1e-5 * length, "{apart} apart on {length}");
 }
 
 /// Regression: from the uncorrected path a true loop starts tens of its

@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use crossbeam::channel::{unbounded, Receiver, Sender};
 
-use crate::correct::{correct_again, CorrectConfig, Corrected, LoopClosure};
+use crate::correct::{correct_again_from, CorrectConfig, Corrected, LoopClosure};
 use crate::geometry::Similarity3;
 use crate::trajectory::{Pose, Trajectory};
 use crate::Hypothesis;
@@ -232,6 +232,8 @@ fn run(
     let mut last: Option<Arc<Snapshot>> = None;
     let mut finish: Option<Sender<Option<Corrected>>> = None;
     let mut kept: Vec<bool> = Vec::new();
+    // The last correction: the next solves start from it.
+    let mut previous: Option<Corrected> = None;
     'outer: while let Ok(first) = rx.recv() {
         let mut pending = vec![first];
         pending.extend(rx.try_iter());
@@ -254,7 +256,7 @@ fn run(
             }
         }
         if let Some(tx) = finish.take() {
-            let result = correct_again(&path, &loops, &kept, &config).ok();
+            let result = correct_again_from(&path, &loops, &kept, previous.as_ref(), &config).ok();
             let _ = tx.send(result);
             break 'outer;
         }
@@ -263,7 +265,7 @@ fn run(
         }
         fresh = false;
         let t0 = Instant::now();
-        let Ok(c) = correct_again(&path, &loops, &kept, &config) else {
+        let Ok(c) = correct_again_from(&path, &loops, &kept, previous.as_ref(), &config) else {
             continue;
         };
         kept = c.loops.iter().map(|l| l.kept).collect();
@@ -300,6 +302,7 @@ fn run(
             largest_move,
             seconds,
         });
+        previous = Some(c);
     }
 }
 
