@@ -236,13 +236,7 @@ fn start_from(
     {
         return None;
     }
-    // world'_T_world of each earlier node: corrected ∘ original⁻¹.
-    let moved: Vec<Similarity3> = before
-        .poses
-        .iter()
-        .zip(solution)
-        .map(|(original, corrected)| corrected.compose(&original.inverse()))
-        .collect();
+    let moved = corrections(before, solution);
     Some(
         graph
             .keyframes
@@ -610,19 +604,24 @@ fn residual(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> f64 {
     r[r.len() / 2]
 }
 
+/// The correction of each node of `graph` at `solution`: `corrected ∘
+/// original⁻¹`, from the uncorrected map's frame into the corrected one's.
+fn corrections(graph: &PoseGraph, solution: &[Similarity3]) -> Vec<Similarity3> {
+    graph
+        .poses
+        .iter()
+        .zip(solution)
+        .map(|(original, corrected)| corrected.compose(&original.inverse()))
+        .collect()
+}
+
 /// Every pose moved with its keyframes: a pose between keyframes `a` and `b`
 /// takes the two keyframes' corrections blended by arc length, so the
 /// corrected path stays continuous.
 fn carry(path: &Trajectory, graph: &PoseGraph, solution: &[Similarity3]) -> Vec<Pose> {
     let positions = path.positions();
     let arc = graph::arc_length(&positions);
-    // world_T_world' correction of each keyframe: corrected ∘ original⁻¹.
-    let corrections: Vec<Similarity3> = graph
-        .poses
-        .iter()
-        .zip(solution)
-        .map(|(before, after)| after.compose(&before.inverse()))
-        .collect();
+    let corrections = corrections(graph, solution);
     let mut node = 0;
     path.poses
         .iter()
