@@ -6,11 +6,12 @@
 //!
 //! ```text
 //! push(pose) ──▶ poses ─┐
-//! loops (candidates,    ├──▶ correction thread: correct_with_loops ──▶ snapshot
-//!  or confirmed only) ──┘                                   └──▶ Correction events
+//! loops (candidates,    ├──▶ correction thread: correct_again_from ──▶ snapshot
+//!  or confirmed only) ──┘                                    └──▶ Correction events
 //! ```
 //!
-//! Loops that arrive while a solve runs are taken together by the next one.
+//! Loops that arrive while a solve runs are taken together by the next one,
+//! which starts from the correction before it.
 
 // Frame names as in Sophus: `a_T_b` maps points from b to a.
 #![allow(non_snake_case)]
