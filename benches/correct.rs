@@ -2,12 +2,11 @@
 //! end to end (loop search included) and the graph solve alone, and the
 //! online detector's re-optimisation after one new loop on a 10 000-pose
 //! drive whose earlier loops were tried before, from the correction before
-//! it (`correct_again_from`), each also
-//! with 2000 even nodes (the graph's former size) for comparison; and the
-//! latency of `push` on the caller's thread while the correction's thread
-//! solves (printed as a histogram). Real data from `TURNPRINT_DATA`
-//! (default `../shared/data`); those benches are skipped with a message
-//! when it is absent.
+//! it (`correct_again_from`), each also with 2000 even nodes (the graph's
+//! former size) for comparison; and the latency of `push` on the caller's
+//! thread while the correction's thread solves (printed as a histogram).
+//! Real data from `TURNPRINT_DATA` (default `../shared/data`); those benches
+//! are skipped with a message when it is absent.
 
 use std::hint::black_box;
 use std::path::PathBuf;

@@ -181,7 +181,7 @@ impl KindsReport {
                 let sum = |f: &dyn Fn(&LoopRun, &OnlineRun) -> usize| {
                     runs.iter().map(|(r, o)| f(r, o)).sum::<usize>()
                 };
-                let (candidates, correct) = (sum(&|_, o| o.candidates), sum(&|_, o| o.correct));
+                let (candidates, correct) = (sum(&|_, o| o.candidates()), sum(&|_, o| o.correct()));
                 let _ = writeln!(
                     out,
                     "| {name} | {} | {} | {events} | {} | {} | {candidates} | {correct} | {} |",
