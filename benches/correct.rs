@@ -1,5 +1,6 @@
 //! Drift-correction speed: `correct` on KITTI 00's drifting MULLS estimate
-//! end to end (loop search included) and the graph solve alone, and the
+//! end to end (loop search included) and the graph solve alone, `correct`
+//! on KITTI 09's truth (a Sim(3) graph of look-alikes, all turned away), the
 //! online detector's re-optimisation after one new loop on a 10 000-pose
 //! drive whose earlier loops were tried before, from the correction before
 //! it (`correct_again_from`), each also with 2000 even nodes (the graph's
@@ -22,9 +23,9 @@ use turnprint::online::synthetic::CityDrive;
 use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint::{find_loops, Pose, Trajectory};
 
-fn mulls_00() -> Option<Trajectory> {
+fn kitti(file: &str) -> Option<Trajectory> {
     let dir = std::env::var("TURNPRINT_DATA").unwrap_or_else(|_| "../shared/data".into());
-    let p = PathBuf::from(dir).join("odometry/kitti_mulls_dso/mulls_no_loop/00.txt");
+    let p = PathBuf::from(dir).join(file);
     match read_trajectory(&p, Format::Kitti) {
         Ok(t) => Some(t),
         Err(_) => {
@@ -43,8 +44,17 @@ fn loops_of(path: &Trajectory, config: &CorrectConfig) -> Vec<LoopClosure> {
 }
 
 fn bench_batch(c: &mut Criterion) {
-    let Some(est) = mulls_00() else { return };
     let config = CorrectConfig::default();
+    // A Sim(3) graph whose loops are all look-alikes, turned away.
+    if let Some(truth) = kitti("kitti_gt/09.txt") {
+        c.bench_function(
+            "correct KITTI 09 truth (1591 poses, every loop wrong)",
+            |b| b.iter(|| correct(black_box(&truth), &config).unwrap()),
+        );
+    }
+    let Some(est) = kitti("odometry/kitti_mulls_dso/mulls_no_loop/00.txt") else {
+        return;
+    };
     c.bench_function("correct MULLS 00 (4541 poses, end to end)", |b| {
         b.iter(|| correct(black_box(&est), &config).unwrap())
     });
@@ -140,7 +150,9 @@ const PACE: Duration = Duration::from_micros(200);
 /// queued, and the count of corrections. Printed, not timed by criterion:
 /// a p99 is the figure.
 fn bench_push_while_correcting(_c: &mut Criterion) {
-    let Some(est) = mulls_00() else { return };
+    let Some(est) = kitti("odometry/kitti_mulls_dso/mulls_no_loop/00.txt") else {
+        return;
+    };
     let points = est.positions();
     let (mut during, mut corrections) = (Vec::new(), 0usize);
     for _ in 0..5 {
