@@ -1,5 +1,6 @@
-//! Drift correction on every real odometry estimate of KITTI in the shared
-//! data, and on the ground truth itself (do no harm): APE before and after
+//! Drift correction on every real odometry estimate of KITTI and every
+//! EuRoC VIO estimate in the shared data, and on KITTI's ground truth itself
+//! (do no harm): APE before and after
 //! `turnprint::correct`, as evo computes it (SE(3) Umeyama for metric
 //! estimates, Sim(3) for monocular ones), with the loops kept and rejected
 //! and the time taken (EVALUATION.md, "Drift correction").
@@ -15,7 +16,8 @@
 //! `ORACLE=1` corrects with the loops the ground truth shows instead of the
 //! search's (what the graph makes of right loops); `NODES=n` and `TOP=k`
 //! set the graph's even keyframes and the loops taken from the search,
-//! `RIGID=1` takes the loops as rigid motions (`CorrectConfig::rigid_loops`).
+//! `RIGID=1` takes the loops as rigid motions (`CorrectConfig::rigid_loops`),
+//! `GROUP=se3` or `GROUP=sim3` sets the node group instead of `auto`.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -38,6 +40,9 @@ struct Case {
     path: PathBuf,
     format: Format,
     alignment: Alignment,
+    /// The truth by time (EuRoC's motion capture); KITTI's for the
+    /// sequence `seq` when `None`.
+    truth: Option<PathBuf>,
 }
 
 const SEQS: [&str; 7] = ["00", "02", "05", "06", "07", "08", "09"];
@@ -52,6 +57,7 @@ fn cases(dir: &Path) -> Vec<Case> {
                 path,
                 format,
                 alignment,
+                truth: None,
             });
         }
     };
@@ -109,7 +115,51 @@ fn cases(dir: &Path) -> Vec<Case> {
         Format::Kitti,
         Alignment::Se3,
     );
+    // Drones: EuRoC's VIO estimates, metric (an IMU fixes the scale).
+    for (method, session, rel, gt_rel) in turnprint_eval::kinds::catalog::euroc_vio_estimates(dir) {
+        out.push(Case {
+            name: format!("EuRoC {method}"),
+            seq: session.into(),
+            path: dir.join(rel),
+            format: Format::Auto,
+            alignment: Alignment::Se3,
+            truth: Some(dir.join(gt_rel)),
+        });
+    }
     out
+}
+
+/// The estimate's poses that have a truth, and the truth of each: KITTI's
+/// by frame, or the motion capture's interpolated at each pose's time
+/// (poses outside its span left out). `None` when they do not pair.
+fn with_truth(dir: &Path, case: &Case, est: Trajectory) -> Option<(Trajectory, Vec<Vector3<f64>>)> {
+    if let Some(file) = &case.truth {
+        let gt = read_trajectory(file, Format::Auto).ok()?;
+        let at = turnprint_eval::kinds::catalog::truth_at_times(&est, &gt);
+        let (poses, truth): (Vec<_>, Vec<_>) = est
+            .poses
+            .into_iter()
+            .zip(at)
+            .filter_map(|(p, t)| Some((p, t?)))
+            .unzip();
+        let est = Trajectory {
+            source: est.source,
+            poses,
+        };
+        return (est.len() >= 2).then_some((est, truth));
+    }
+    let gt = read_trajectory(
+        &dir.join("kitti_gt").join(format!("{}.txt", case.seq)),
+        Format::Kitti,
+    )
+    .ok()?;
+    let times: Vec<f64> =
+        std::fs::read_to_string(dir.join("kitti_gt").join(format!("{}_times.txt", case.seq)))
+            .map(|s| s.lines().filter_map(|l| l.trim().parse().ok()).collect())
+            .unwrap_or_default();
+    let pairs = pairing(&est, gt.len(), &times)?;
+    let truth = pairs.iter().map(|&j| gt.poses[j].position).collect();
+    Some((est, truth))
 }
 
 /// Ground-truth index of each pose: by order for one pose per frame, else
@@ -333,7 +383,8 @@ fn oracle(
 }
 
 /// Default settings, with `NODES=` (keyframes at most), `TOP=` (loops
-/// from the search) and `RIGID=1` (`rigid_loops`) to measure their effect.
+/// from the search), `RIGID=1` (`rigid_loops`) and `GROUP=se3|sim3` (the
+/// node group instead of `auto`) to measure their effect.
 fn config() -> CorrectConfig {
     let mut c = CorrectConfig::default();
     let var = |name: &str| {
@@ -348,6 +399,11 @@ fn config() -> CorrectConfig {
         c.loops.top_k = k;
     }
     c.rigid_loops = std::env::var("RIGID").is_ok();
+    match std::env::var("GROUP").as_deref() {
+        Ok("se3") => c.group = turnprint::correct::Group::Se3,
+        Ok("sim3") => c.group = turnprint::correct::Group::Sim3,
+        _ => {}
+    }
     c
 }
 
@@ -362,15 +418,6 @@ fn main() {
     println!("| estimate | seq | poses | APE before | APE after | after / before | loops kept / rejected | graph | s |");
     println!("|---|---|---|---|---|---|---|---|---|");
     for case in cases(&dir).into_iter().filter(|c| c.name.contains(&filter)) {
-        let gt = read_trajectory(
-            &dir.join("kitti_gt").join(format!("{}.txt", case.seq)),
-            Format::Kitti,
-        )
-        .expect("ground truth");
-        let times: Vec<f64> =
-            std::fs::read_to_string(dir.join("kitti_gt").join(format!("{}_times.txt", case.seq)))
-                .map(|s| s.lines().filter_map(|l| l.trim().parse().ok()).collect())
-                .unwrap_or_default();
         let est = match read_trajectory(&case.path, case.format) {
             Ok(t) => t,
             Err(e) => {
@@ -378,16 +425,13 @@ fn main() {
                 continue;
             }
         };
-        let Some(pairs) = pairing(&est, gt.len(), &times) else {
+        let Some((est, truth)) = with_truth(&dir, &case, est) else {
             println!(
-                "| {} | {} | {} | not paired with the truth | | | | | |",
-                case.name,
-                case.seq,
-                est.len()
+                "| {} | {} | not paired with the truth | | | | | | |",
+                case.name, case.seq,
             );
             continue;
         };
-        let truth: Vec<Vector3<f64>> = pairs.iter().map(|&j| gt.poses[j].position).collect();
         let started = Instant::now();
         let result = if std::env::var("ORACLE").is_ok() {
             oracle(&est, &truth)

@@ -338,34 +338,45 @@ fn kitti(dir: &Path, c: &mut Catalog) {
     }
 }
 
-/// EuRoC VIO estimates, each paired by time with its session's truth.
-fn euroc_vio(dir: &Path, c: &mut Catalog) {
-    for (name, frame, gt_rel) in EUROC {
-        let candidates = [
+/// The EuRoC VIO estimates of the data folder `dir`: method, session,
+/// estimate file and ground-truth file (relative to `dir`).
+pub fn euroc_vio_estimates(dir: &Path) -> Vec<(&'static str, &'static str, String, &'static str)> {
+    let mut out = Vec::new();
+    for (name, _, gt_rel) in EUROC {
+        for (method, rel) in [
             ("VI-SLAM", format!("multisession/euroc_vio/vislam_rp/laptop_vislam_rp_{name}/stamped_traj_estimate0.txt")),
             ("mono VIO", format!("multisession/euroc_vio/vio_mono/laptop_vio_mono_{name}/stamped_traj_estimate.txt")),
-        ];
-        for (method, rel) in candidates {
-            if !dir.join(&rel).exists() {
-                continue;
+        ] {
+            if dir.join(&rel).exists() {
+                out.push((method, name, rel, gt_rel));
             }
-            let (Some(est), Some(gt)) = (c.read(dir, &rel), c.read(dir, gt_rel)) else {
-                continue;
-            };
-            let pairs = pair_by_time(&est, &gt);
-            if pairs.len() < 20 {
-                c.skipped
-                    .push((rel, "no poses inside the truth's time span".into()));
-                continue;
-            }
-            c.sessions.push(Session::estimate(
-                Kind::DroneVio,
-                format!("{method} {name}"),
-                &format!("euroc {name}"),
-                Some(frame),
-                pairs,
-            ));
         }
+    }
+    out
+}
+
+/// EuRoC VIO estimates, each paired by time with its session's truth.
+fn euroc_vio(dir: &Path, c: &mut Catalog) {
+    for (method, name, rel, gt_rel) in euroc_vio_estimates(dir) {
+        let Some(&(_, frame, _)) = EUROC.iter().find(|e| e.0 == name) else {
+            continue;
+        };
+        let (Some(est), Some(gt)) = (c.read(dir, &rel), c.read(dir, gt_rel)) else {
+            continue;
+        };
+        let pairs = pair_by_time(&est, &gt);
+        if pairs.len() < 20 {
+            c.skipped
+                .push((rel, "no poses inside the truth's time span".into()));
+            continue;
+        }
+        c.sessions.push(Session::estimate(
+            Kind::DroneVio,
+            format!("{method} {name}"),
+            &format!("euroc {name}"),
+            Some(frame),
+            pairs,
+        ));
     }
 }
 
@@ -373,6 +384,17 @@ fn euroc_vio(dir: &Path, c: &mut Catalog) {
 /// outside the truth's span, or where the truth has a gap longer than ten
 /// of its median steps in time, are left out.
 pub fn pair_by_time(est: &Trajectory, truth: &Trajectory) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    est.poses
+        .iter()
+        .zip(truth_at_times(est, truth))
+        .filter_map(|(p, t)| Some((p.position, t?)))
+        .collect()
+}
+
+/// The truth interpolated at each estimate pose's time: `None` outside the
+/// truth's span, where the truth has a gap longer than ten of its median
+/// steps in time, or for a pose without a time.
+pub fn truth_at_times(est: &Trajectory, truth: &Trajectory) -> Vec<Option<Vector3<f64>>> {
     let timed: Vec<(f64, Vector3<f64>)> = truth
         .poses
         .iter()
@@ -381,11 +403,11 @@ pub fn pair_by_time(est: &Trajectory, truth: &Trajectory) -> Vec<(Vector3<f64>, 
     let mut dts: Vec<f64> = timed.windows(2).map(|w| w[1].0 - w[0].0).collect();
     dts.sort_by(f64::total_cmp);
     let Some(&dt) = dts.get(dts.len() / 2) else {
-        return Vec::new();
+        return vec![None; est.len()];
     };
     est.poses
         .iter()
-        .filter_map(|p| {
+        .map(|p| {
             let t = p.t?;
             let k = timed.partition_point(|(s, _)| *s <= t);
             let (a, b) = (timed.get(k.checked_sub(1)?)?, timed.get(k)?);
@@ -393,7 +415,7 @@ pub fn pair_by_time(est: &Trajectory, truth: &Trajectory) -> Vec<(Vector3<f64>, 
                 return None;
             }
             let f = (t - a.0) / (b.0 - a.0);
-            Some((p.position, a.1 + (b.1 - a.1) * f))
+            Some(a.1 + (b.1 - a.1) * f)
         })
         .collect()
 }
