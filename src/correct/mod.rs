@@ -32,6 +32,8 @@ pub mod graph;
 pub mod loops;
 pub mod solve;
 
+mod drift;
+
 pub use config::{CorrectConfig, Group, LoopNoise, OdometryNoise};
 pub use graph::PoseGraph;
 pub use loops::LoopClosure;
@@ -39,7 +41,8 @@ pub use loops::LoopClosure;
 use crate::geometry::{nearest_rotation, Similarity3};
 use crate::trajectory::{Pose, Trajectory};
 use crate::Result;
-use nalgebra::{Rotation3, UnitQuaternion};
+use drift::{drift_scale, miss, misses};
+use nalgebra::UnitQuaternion;
 
 /// What became of one loop.
 #[derive(Debug, Clone, PartialEq)]
@@ -345,8 +348,6 @@ fn admit(
     let mut accepted = 0;
     let mut try_one =
         |id: usize, active: &mut Vec<bool>, solution: &mut Vec<Similarity3>| -> Result<bool> {
-            let mut trial = active.clone();
-            trial[id] = true;
             // A loop already far beyond the gate at the path as it is
             // turned away unsolved ([`PRIOR_BOUND_MARGIN`]).
             if !admits(
@@ -356,6 +357,8 @@ fn admit(
             ) {
                 return Ok(false);
             }
+            let mut trial = active.clone();
+            trial[id] = true;
             let next = solve::optimise(graph, solution, &trial, config.max_iterations)?;
             let c = cost(&next, &trial);
             let fits = admits(c - now, dof, config.reject_above);
@@ -384,7 +387,7 @@ fn admit(
 }
 
 /// How far a loop's Mahalanobis distance from the path under the prior
-/// ([`Misses::chi2`] at `k = 1`), halved, may overstate the rise of the
+/// ([`drift::Misses::chi2`] at `k = 1`), halved, may overstate the rise of the
 /// cost its solve brings before the admission trusts it to turn the loop
 /// away unsolved. In a linear graph it never overstates it: the prior's
 /// chain between the passes is the loosest the loops kept can leave it.
@@ -436,201 +439,6 @@ fn settle(
             _ => return Ok((active, solution)),
         }
     }
-}
-
-/// Least drift scale searched: at a ten-thousandth of the prior's sigmas
-/// the odometry is rigid next to any loop, which is the answer when the
-/// loops show no drift beyond their own noise.
-const MIN_DRIFT_SCALE: f64 = 1e-4;
-
-/// Maximum-likelihood factor `k` in (0, 1] on the odometry prior's sigmas,
-/// from the loops in `active`, and the loops that drift explains.
-///
-/// Each loop's misses against the uncorrected path are modelled per axis as
-/// zero-mean: its translation miss across the road `d` (its edges' mean
-/// squared miss on the `a` axes a slide, [`graph::Sigmas::slide`], leaves)
-/// with variance `k² (V_t + V_l) / 3 + σ_t²`, and its rotation miss `ρ` on
-/// each axis with variance `k² V_r / 3 + σ_r²` (`σ_r` the roll's sigma about
-/// its axis, [`graph::Sigmas::roll`]), and in a Sim(3) graph its miss of
-/// ln(scale) with variance `k² V_s + σ_s²`, where the loop is right; `σ` are
-/// the loop's own sigmas, `V_t`, `V_r` and `V_s` the prior's translation,
-/// rotation and scale variances of the odometry chain between its two poses
-/// and `V_l` the rotation's lever to the far pose. Where the loop is
-/// wrong, its misses are anywhere the prior reaches (`k = 1`), at even odds.
-/// `k` maximises the mixture's likelihood `Σ max(ln p_right, ln p_wrong)` on
-/// a log grid of tenths of a decade, and a loop more likely wrong than right
-/// at it leaves the set: a loop that needs far more drift than the others
-/// show (two parallel roads of one shape on a path that does not drift) is
-/// turned away, however much drift the prior would allow. `k` is 1 when no
-/// loop is active.
-fn drift_scale(graph: &PoseGraph, active: &[bool]) -> (f64, Vec<bool>) {
-    let mut samples: Vec<(usize, Misses)> = Vec::new();
-    for (id, _) in active.iter().enumerate().filter(|(_, &a)| a) {
-        samples.push((id, misses(graph, &graph.poses, id)));
-    }
-    let mut kept = vec![false; active.len()];
-    if samples.is_empty() {
-        return (1.0, kept);
-    }
-    let log_likelihood = |k: f64| -> f64 {
-        samples
-            .iter()
-            .map(|(_, m)| m.ln_p(k).max(m.ln_p(1.0)))
-            .sum()
-    };
-    let steps = (MIN_DRIFT_SCALE.log10().abs() * 10.0).round() as i32;
-    let k = (0..=steps)
-        .map(|i| 10f64.powf(-(i as f64) / 10.0))
-        .max_by(|&a, &b| log_likelihood(a).total_cmp(&log_likelihood(b)))
-        .unwrap_or(1.0);
-    for (id, m) in &samples {
-        kept[*id] = m.ln_p(k) >= m.ln_p(1.0);
-    }
-    (k, kept)
-}
-
-/// The misses of loop `id`'s edges at `solution` and the variances the
-/// prior's odometry chain between its passes and its own noise give them
-/// ([`drift_scale`]).
-fn misses(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> Misses {
-    let sim3 = graph.group == Group::Sim3;
-    let edges: Vec<&graph::Edge> = graph.loop_edges(id).collect();
-    let n = edges.len().max(1) as f64;
-    let mut m = Misses {
-        sim3,
-        ..Misses::default()
-    };
-    for e in &edges {
-        let (r, w) = miss(solution, e);
-        let (across, a) = match e.sigmas.slide {
-            Some(slide) => (r - slide.axis * slide.axis.dot(&r), 2.0),
-            None => (r, 3.0),
-        };
-        m.translation += across.norm_squared() / n;
-        m.axes += a / n;
-        // The loop's own variance: its edges share one measurement.
-        m.own_translation += e.sigmas.translation.powi(2) / (n * n);
-        let (turn, roll) = match e.sigmas.roll {
-            Some(roll) => (w - roll.axis * roll.axis.dot(&w), roll.axis.dot(&w)),
-            None => (w, 0.0),
-        };
-        m.rotation += turn.norm_squared() / n;
-        m.roll += roll * roll / n;
-        m.own_rotation += e.sigmas.rotation.powi(2) / (n * n);
-        m.own_roll += e
-            .sigmas
-            .roll
-            .map_or(0.0, |r| r.sigma.powi(2) - e.sigmas.rotation.powi(2))
-            / (n * n);
-        if sim3 {
-            let predicted = solution[e.from].scale * e.from_T_to.scale;
-            m.scale += (predicted / solution[e.to].scale).ln().powi(2) / n;
-            m.own_scale += e.sigmas.log_scale.powi(2) / (n * n);
-        }
-        let far = graph.poses[e.to].translation;
-        let (a, b) = (e.from.min(e.to), e.from.max(e.to));
-        for o in &graph.edges[a..b] {
-            let lever = (far - graph.poses[o.from].translation).norm_squared();
-            m.chain_translation += 3.0 * o.sigmas.translation.powi(2) / n;
-            m.chain_lever += 2.0 * o.sigmas.rotation.powi(2) * lever / n;
-            m.chain_rotation += 3.0 * o.sigmas.rotation.powi(2) / n;
-            if sim3 {
-                m.chain_scale += o.sigmas.log_scale.powi(2) / n;
-            }
-        }
-    }
-    m
-}
-
-/// One loop's misses at a solution and the variances that
-/// explain them ([`drift_scale`]).
-#[derive(Debug, Default)]
-struct Misses {
-    /// Mean squared translation miss across the road.
-    translation: f64,
-    /// Axes it is measured on.
-    axes: f64,
-    /// Mean squared rotation miss (radians²) off the roll's axis (3 axes,
-    /// 2 where the edges have a roll), and about it.
-    rotation: f64,
-    roll: f64,
-    /// The loop's own translation and rotation variances, per axis, and
-    /// what the roll's axis adds to the rotation's.
-    own_translation: f64,
-    own_rotation: f64,
-    own_roll: f64,
-    /// The prior's chain variances (summed over 3 axes): translation, the
-    /// rotation's lever, rotation.
-    chain_translation: f64,
-    chain_lever: f64,
-    chain_rotation: f64,
-    /// In a Sim(3) graph: the squared miss of ln(scale), the loop's own
-    /// variance of it and the prior's over the chain.
-    sim3: bool,
-    scale: f64,
-    own_scale: f64,
-    chain_scale: f64,
-}
-
-impl Misses {
-    /// Log-likelihood of the misses with the prior's sigmas times `k`.
-    fn ln_p(&self, k: f64) -> f64 {
-        let v = self.variances(k);
-        -0.5 * (self.axes * v.translation.ln() + 2.0 * v.rotation.ln() + v.roll.ln())
-            - 0.5 * self.chi2(k)
-            - if self.sim3 { 0.5 * v.scale.ln() } else { 0.0 }
-    }
-
-    /// The squared misses in their variances with the prior's sigmas times
-    /// `k`: the loop's Mahalanobis distance from the path.
-    fn chi2(&self, k: f64) -> f64 {
-        let v = self.variances(k);
-        self.translation / v.translation
-            + self.rotation / v.rotation
-            + self.roll / v.roll
-            + if self.sim3 { self.scale / v.scale } else { 0.0 }
-    }
-
-    /// Per-axis variances of the misses with the prior's sigmas times `k`.
-    fn variances(&self, k: f64) -> MissVariances {
-        let translation =
-            k * k * (self.chain_translation + self.chain_lever) / 3.0 + self.own_translation;
-        let rotation = k * k * self.chain_rotation / 3.0 + self.own_rotation;
-        MissVariances {
-            translation,
-            rotation,
-            // Without a roll its axis is one of the others: its term then
-            // adds the third axis's share at the same variance.
-            roll: rotation + self.own_roll,
-            scale: k * k * self.chain_scale + self.own_scale,
-        }
-    }
-}
-
-/// [`Misses::variances`].
-struct MissVariances {
-    translation: f64,
-    rotation: f64,
-    roll: f64,
-    scale: f64,
-}
-
-impl Misses {}
-
-/// The misses of loop edge `e` at `solution`, in the frame of its `to`
-/// node (the frame of its residual, its slide and its roll): translation,
-/// in that node's units, and rotation, as a rotation vector.
-fn miss(
-    solution: &[Similarity3],
-    e: &graph::Edge,
-) -> (nalgebra::Vector3<f64>, nalgebra::Vector3<f64>) {
-    let predicted = solution[e.from].compose(&e.from_T_to);
-    let actual = &solution[e.to];
-    (
-        actual.rotation.transpose() * (predicted.translation - actual.translation) / actual.scale,
-        Rotation3::from_matrix_unchecked(actual.rotation.transpose() * predicted.rotation)
-            .scaled_axis(),
-    )
 }
 
 /// Median over the edges of loop `id` of the larger of the translation and

@@ -44,7 +44,7 @@ pub fn match_paths(a: &Trajectory, b: &Trajectory, config: &Config) -> Result<Ve
 }
 
 /// Each hypothesis' similarity polished on the raw poses `a` and `b`
-/// ([`crate::align::polish`]).
+/// ([`crate::align::polish()`]).
 fn polished(
     a: &[Vector3<f64>],
     b: &[Vector3<f64>],
