@@ -116,14 +116,14 @@ fn cases(dir: &Path) -> Vec<Case> {
         Alignment::Se3,
     );
     // Drones: EuRoC's VIO estimates, metric (an IMU fixes the scale).
-    for (method, session, rel, gt_rel) in turnprint_eval::kinds::catalog::euroc_vio_estimates(dir) {
+    for v in turnprint_eval::kinds::catalog::euroc_vio_estimates(dir) {
         out.push(Case {
-            name: format!("EuRoC {method}"),
-            seq: session.into(),
-            path: dir.join(rel),
+            name: format!("EuRoC {}", v.method),
+            seq: v.session.into(),
+            path: dir.join(v.estimate),
             format: Format::Auto,
             alignment: Alignment::Se3,
-            truth: Some(dir.join(gt_rel)),
+            truth: Some(dir.join(v.truth)),
         });
     }
     out

@@ -338,17 +338,37 @@ fn kitti(dir: &Path, c: &mut Catalog) {
     }
 }
 
-/// The EuRoC VIO estimates of the data folder `dir`: method, session,
-/// estimate file and ground-truth file (relative to `dir`).
-pub fn euroc_vio_estimates(dir: &Path) -> Vec<(&'static str, &'static str, String, &'static str)> {
+/// One EuRoC VIO estimate of the data folder, paths relative to it.
+#[derive(Debug, Clone)]
+pub struct VioEstimate {
+    /// "VI-SLAM" or "mono VIO".
+    pub method: &'static str,
+    /// The EuRoC session, e.g. "MH_01".
+    pub session: &'static str,
+    /// The frame its session's truth shares with the others' (the hall or a room).
+    pub frame: &'static str,
+    /// The estimate's file.
+    pub estimate: String,
+    /// The session's ground-truth file.
+    pub truth: &'static str,
+}
+
+/// The EuRoC VIO estimates present in the data folder `dir`.
+pub fn euroc_vio_estimates(dir: &Path) -> Vec<VioEstimate> {
     let mut out = Vec::new();
-    for (name, _, gt_rel) in EUROC {
-        for (method, rel) in [
-            ("VI-SLAM", format!("multisession/euroc_vio/vislam_rp/laptop_vislam_rp_{name}/stamped_traj_estimate0.txt")),
-            ("mono VIO", format!("multisession/euroc_vio/vio_mono/laptop_vio_mono_{name}/stamped_traj_estimate.txt")),
+    for (session, frame, truth) in EUROC {
+        for (method, estimate) in [
+            ("VI-SLAM", format!("multisession/euroc_vio/vislam_rp/laptop_vislam_rp_{session}/stamped_traj_estimate0.txt")),
+            ("mono VIO", format!("multisession/euroc_vio/vio_mono/laptop_vio_mono_{session}/stamped_traj_estimate.txt")),
         ] {
-            if dir.join(&rel).exists() {
-                out.push((method, name, rel, gt_rel));
+            if dir.join(&estimate).exists() {
+                out.push(VioEstimate {
+                    method,
+                    session,
+                    frame,
+                    estimate,
+                    truth,
+                });
             }
         }
     }
@@ -357,24 +377,21 @@ pub fn euroc_vio_estimates(dir: &Path) -> Vec<(&'static str, &'static str, Strin
 
 /// EuRoC VIO estimates, each paired by time with its session's truth.
 fn euroc_vio(dir: &Path, c: &mut Catalog) {
-    for (method, name, rel, gt_rel) in euroc_vio_estimates(dir) {
-        let Some(&(_, frame, _)) = EUROC.iter().find(|e| e.0 == name) else {
-            continue;
-        };
-        let (Some(est), Some(gt)) = (c.read(dir, &rel), c.read(dir, gt_rel)) else {
+    for v in euroc_vio_estimates(dir) {
+        let (Some(est), Some(gt)) = (c.read(dir, &v.estimate), c.read(dir, v.truth)) else {
             continue;
         };
         let pairs = pair_by_time(&est, &gt);
         if pairs.len() < 20 {
             c.skipped
-                .push((rel, "no poses inside the truth's time span".into()));
+                .push((v.estimate, "no poses inside the truth's time span".into()));
             continue;
         }
         c.sessions.push(Session::estimate(
             Kind::DroneVio,
-            format!("{method} {name}"),
-            &format!("euroc {name}"),
-            Some(frame),
+            format!("{} {}", v.method, v.session),
+            &format!("euroc {}", v.session),
+            Some(v.frame),
             pairs,
         ));
     }
