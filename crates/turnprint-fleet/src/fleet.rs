@@ -22,7 +22,7 @@ use turnprint::pipeline::placement::{agrees, MIN_OVERLAP_SCORE};
 use turnprint::pipeline::{match_prepared, Config};
 use turnprint::Hypothesis;
 
-use crate::history::RobotHistory;
+use crate::history::{RobotHistory, HISTORY_BUDGET};
 use crate::payload::{decode, Chunk, Message, Refusal};
 
 /// Segments before the new ones that a window of new segments keeps: the
@@ -54,6 +54,14 @@ const COMPARE_POINTS: usize = 64;
 /// this, the robot is asked for its whole history instead (a peer that
 /// only ever sends out of order cannot fill memory).
 const MAX_STASHED: usize = 256;
+
+/// Hypotheses of one robot held at most (those found and those emitted,
+/// each): past this the weakest found and the oldest emitted are dropped,
+/// so that a long run's memory stays bounded. 512 is far above what a
+/// pair's estimate weighs: on the fleet test's 1.5 km robots a pair finds
+/// 5-40 plausible hypotheses, and the estimate leads with the best-scoring
+/// one.
+pub const MAX_HYPOTHESES: usize = 512;
 
 /// A hypothesis of where another robot lies: `hypothesis` maps its
 /// coordinates into this robot's frame (`a_range`: this robot's poses,
@@ -122,10 +130,10 @@ struct Peer {
 }
 
 impl Peer {
-    fn new(epoch: u64) -> Peer {
+    fn new(epoch: u64, budget: usize) -> Peer {
         Peer {
             epoch,
-            history: RobotHistory::default(),
+            history: RobotHistory::with_budget(budget),
             next_seq: 0,
             stash: BTreeMap::new(),
             peer_done: 0,
@@ -154,22 +162,32 @@ pub struct Fleet {
     matchings: u64,
     /// This robot's path has ended.
     own_ended: bool,
+    /// Bytes each robot's history may hold ([`HISTORY_BUDGET`]).
+    budget: usize,
 }
 
 impl Fleet {
     /// Robot `me` of session `epoch`.
     pub fn new(me: &str, epoch: u64) -> Fleet {
+        Self::with_budget(me, epoch, HISTORY_BUDGET)
+    }
+
+    /// Robot `me` of session `epoch`, each robot's history (its own and
+    /// every other's) holding at most `budget` bytes: past it, the older
+    /// half is dropped ([`RobotHistory`]).
+    pub fn with_budget(me: &str, epoch: u64, budget: usize) -> Fleet {
         Fleet {
             me: me.to_string(),
             epoch,
             config: Config::for_matching(),
-            own: RobotHistory::default(),
+            own: RobotHistory::with_budget(budget),
             peers: BTreeMap::new(),
             retired: HashSet::new(),
             refused: Refused::default(),
             restarts: 0,
             matchings: 0,
             own_ended: false,
+            budget,
         }
     }
 
@@ -228,12 +246,12 @@ impl Fleet {
         let peer = self
             .peers
             .entry(robot.to_string())
-            .or_insert_with(|| Peer::new(epoch));
+            .or_insert_with(|| Peer::new(epoch, self.budget));
         if peer.epoch != epoch {
             // A new session of the robot (a restart): what the old one
             // said is stale, its candidates included.
             self.retired.insert((robot.to_string(), peer.epoch));
-            *peer = Peer::new(epoch);
+            *peer = Peer::new(epoch, self.budget);
             self.restarts += 1;
         }
         let chunk = match message {
@@ -358,16 +376,23 @@ impl Fleet {
                     .emitted
                     .iter()
                     .any(|e| overlapping(e.a_range, h.a_range) && agree(e, &h, &points));
+                // Held without their correspondences: the estimate reads
+                // only the ranges and similarities.
+                let held = Hypothesis {
+                    correspondences: Vec::new(),
+                    ..h.clone()
+                };
                 if !known {
-                    peer.emitted.push(h.clone());
+                    peer.emitted.push(held.clone());
                     out.push(CrossCandidate {
                         robot: robot.clone(),
                         at_pose,
-                        hypothesis: h.clone(),
+                        hypothesis: h,
                     });
                 }
-                peer.found.push(h);
+                peer.found.push(held);
             }
+            bound(&mut peer.found, &mut peer.emitted);
         }
         out
     }
@@ -433,6 +458,7 @@ impl Fleet {
                         "ended": p.ended,
                         "hypotheses": p.found.len(),
                         "history_bytes": p.history.history.bytes(),
+                        "dropped_segments": p.history.dropped().bounds,
                     }),
                 )
             })
@@ -445,6 +471,18 @@ impl Fleet {
             "restarts_seen": self.restarts,
             "peers": peers,
         })
+    }
+}
+
+/// Holds at most [`MAX_HYPOTHESES`] of each: the best-scoring found, the
+/// latest emitted.
+fn bound(found: &mut Vec<Hypothesis>, emitted: &mut Vec<Hypothesis>) {
+    if found.len() > MAX_HYPOTHESES {
+        found.sort_by(|x, y| y.score.total_cmp(&x.score));
+        found.truncate(MAX_HYPOTHESES);
+    }
+    if emitted.len() > MAX_HYPOTHESES {
+        emitted.drain(..emitted.len() - MAX_HYPOTHESES);
     }
 }
 
@@ -470,10 +508,13 @@ fn sweep(own: &RobotHistory, peer: &RobotHistory, config: &Config) -> (Vec<Hypot
     };
     let mut found = match_prepared(&own_whole, &peer_whole, config);
     let mut runs = 1;
+    // Windows over the segments held (a long history's dropped start is
+    // matched no more).
     let windows = |h: &RobotHistory| {
-        let n = h.segments();
+        let (n, dropped) = (h.segments(), h.dropped().bounds);
         (MATCH_EVERY..n + MATCH_EVERY)
             .step_by(MATCH_EVERY)
+            .filter(move |&end| end > dropped + 1)
             .filter_map(move |end| {
                 let from = end.saturating_sub(MATCH_EVERY + CONTEXT_SEGMENTS);
                 (from > 0 || end < n).then_some((from, end))

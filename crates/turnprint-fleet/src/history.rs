@@ -67,37 +67,89 @@ impl Encoder {
     }
 }
 
-/// One robot's history, rebuilt from its chunks in order.
-#[derive(Default)]
+/// Bytes a robot's history may hold (its track, signature and index:
+/// [`History::bytes`]) before its older half is dropped: 64 MiB, about
+/// 500 000 poses at the 80-160 bytes a pose of a peer's rebuilt history
+/// takes (14 hours of a robot at 10 poses a second), so that a fleet's
+/// memory stays bounded by its robots rather than by how long they run.
+pub const HISTORY_BUDGET: usize = 64 << 20;
+
+/// What a history dropped from its start: the held parts' first items'
+/// indices in the robot's whole history.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Dropped {
+    /// Track samples.
+    pub grid: usize,
+    /// Signature samples.
+    pub sig: usize,
+    /// Segment boundaries.
+    pub bounds: usize,
+}
+
+/// One robot's history, rebuilt from its chunks in order; past its budget,
+/// only its newer half is held.
 pub struct RobotHistory {
-    /// The samples, as the online search reads them.
+    /// The samples held, as the online search reads them (indices from the
+    /// first held item; pose indices and arc lengths are the robot's own).
     pub history: History,
     /// The robot's frame (from its first chunk).
     pub frame: Option<FrameInfo>,
     /// Poses the robot had pushed at its last chunk.
     pub poses: usize,
-    /// Its last kept track sample (the start of the next fill).
+    /// Its last kept track sample (the start of the next fill; its index
+    /// is the robot's own).
     last: Option<KeptSample>,
+    /// What was dropped from the start.
+    dropped: Dropped,
+    /// Arc length where the robot's track starts.
+    origin: Option<f64>,
+    /// Bytes held at most ([`HISTORY_BUDGET`]).
+    budget: usize,
+}
+
+impl Default for RobotHistory {
+    fn default() -> Self {
+        Self::with_budget(HISTORY_BUDGET)
+    }
 }
 
 impl RobotHistory {
+    /// An empty history that holds at most `budget` bytes.
+    pub fn with_budget(budget: usize) -> Self {
+        RobotHistory {
+            history: History::default(),
+            frame: None,
+            poses: 0,
+            last: None,
+            dropped: Dropped::default(),
+            origin: None,
+            budget,
+        }
+    }
+
+    /// What the history dropped from its start.
+    pub fn dropped(&self) -> Dropped {
+        self.dropped
+    }
+
     /// Appends the next chunk: its track samples filled in between the
     /// kept ones, its signature samples and boundaries. A chunk that does
     /// not continue the history is refused whole (the history is left as
-    /// it was).
+    /// it was). Past the budget, the older half is dropped ([`Self::trim`]).
     pub fn apply(&mut self, c: &Chunk) -> Result<(), String> {
         let h = &self.history;
-        if c.sig0 as usize != h.sig_value.len() {
+        let d = self.dropped;
+        let sig_held = d.sig + h.sig_value.len();
+        if c.sig0 as usize != sig_held {
             return Err(format!(
-                "signature samples from {} where {} are held",
-                c.sig0,
-                h.sig_value.len()
+                "signature samples from {} where {sig_held} are held",
+                c.sig0
             ));
         }
         if self.frame.is_some_and(|f| f != c.frame) {
             return Err("the robot's frame changed within its session".into());
         }
-        let held = h.xy.len();
+        let held = d.grid + h.xy.len();
         match (c.kept.first(), self.last) {
             (None, _) if c.grid_end as usize != held => {
                 return Err("track samples announced but not sent".into())
@@ -108,18 +160,23 @@ impl RobotHistory {
             }
             _ => {}
         }
+        let grid_of = |g: f64| g + d.grid as f64;
         let sig_ok = c.sig.first().is_none_or(|s| {
-            h.sig_grid.last().is_none_or(|&g| g <= s.1) && s.1 <= c.grid_end as f64
-        }) && c.sig.last().is_none_or(|s| s.1 <= c.grid_end as f64);
+            h.sig_grid.last().is_none_or(|&g| grid_of(g) <= s.1) && s.1 <= c.grid_end as f64
+        }) && c.sig.last().is_none_or(|s| s.1 <= c.grid_end as f64)
+            && c.sig.windows(2).all(|w| w[0].1 <= w[1].1);
         if !sig_ok {
             return Err("signature samples outside the track".into());
         }
-        let n_sig = h.sig_value.len() + c.sig.len();
+        let n_sig = sig_held + c.sig.len();
         let bounds_ok = c
             .bounds
             .first()
-            .is_none_or(|&b| h.bounds.last().is_none_or(|&l| l < b as usize))
-            && c.bounds.iter().all(|&b| b as usize <= n_sig);
+            .is_none_or(|&b| h.bounds.last().is_none_or(|&l| d.sig + l < b as usize))
+            && c.bounds.windows(2).all(|w| w[0] < w[1])
+            && c.bounds
+                .iter()
+                .all(|&b| b as usize >= d.sig && b as usize <= n_sig);
         if !bounds_ok {
             return Err("segment boundaries outside the signature".into());
         }
@@ -140,43 +197,101 @@ impl RobotHistory {
                 h.pose
                     .push(lerp(from.pose as f64, k.pose as f64).round() as u32);
             }
+            self.origin.get_or_insert(k.s);
             self.last = Some(*k);
         }
         for &(v, g) in &c.sig {
             h.sig_value.push(v);
-            h.sig_grid.push(g);
+            h.sig_grid.push(g - d.grid as f64);
         }
-        h.bounds.extend(c.bounds.iter().map(|&b| b as usize));
+        h.bounds
+            .extend(c.bounds.iter().map(|&b| b as usize - d.sig));
         h.index_new_samples();
         self.frame.get_or_insert(c.frame);
         self.poses = self.poses.max(c.poses as usize);
+        if self.history.bytes() > self.budget {
+            self.trim();
+        }
         Ok(())
     }
 
-    /// Segment boundaries held.
-    pub fn segments(&self) -> usize {
-        self.history.bounds.len()
+    /// Drops the older half of the history held: everything before the
+    /// first segment boundary at or past its middle track sample (a cut
+    /// between boundaries would leave a segment without its start). The
+    /// places dropped can no longer be matched; where another robot was
+    /// placed through them, its hypotheses stay.
+    fn trim(&mut self) {
+        let h = &mut self.history;
+        let middle = (h.xy.len() / 2) as f64;
+        let Some(first) = h
+            .bounds
+            .iter()
+            .position(|&b| h.sig_grid.get(b).is_some_and(|&g| g >= middle))
+            .filter(|&k| k > 0)
+        else {
+            return;
+        };
+        let sig_cut = h.bounds[first];
+        let grid_cut = h.sig_grid[sig_cut].max(0.0) as usize;
+        let pose_cut = h.pose[grid_cut];
+        h.xy.drain(..grid_cut);
+        h.s.drain(..grid_cut);
+        h.curvature.drain(..grid_cut);
+        h.pose.drain(..grid_cut);
+        h.sig_value.drain(..sig_cut);
+        h.sig_grid.drain(..sig_cut);
+        for g in &mut h.sig_grid {
+            *g -= grid_cut as f64;
+        }
+        h.bounds.drain(..first);
+        for b in &mut h.bounds {
+            *b -= sig_cut;
+        }
+        h.keyframes.retain(|&(p, _)| p >= pose_cut);
+        h.xy.shrink_to_fit();
+        h.s.shrink_to_fit();
+        h.curvature.shrink_to_fit();
+        h.pose.shrink_to_fit();
+        h.sig_value.shrink_to_fit();
+        h.sig_grid.shrink_to_fit();
+        h.bounds.shrink_to_fit();
+        h.keyframes.shrink_to_fit();
+        h.index = Default::default();
+        h.index_new_samples();
+        self.dropped = Dropped {
+            grid: self.dropped.grid + grid_cut,
+            sig: self.dropped.sig + sig_cut,
+            bounds: self.dropped.bounds + first,
+        };
     }
 
-    /// Arc length of the track held.
+    /// Segment boundaries the robot has sent (held and dropped).
+    pub fn segments(&self) -> usize {
+        self.dropped.bounds + self.history.bounds.len()
+    }
+
+    /// Arc length of the robot's whole track.
     pub fn length(&self) -> f64 {
-        let s = &self.history.s;
-        match (s.first(), s.last()) {
+        match (self.origin, self.history.s.last()) {
             (Some(a), Some(b)) => b - a,
             _ => 0.0,
         }
     }
 
-    /// The history from segment boundary `k` (clamped) to its end as a
-    /// prepared path (pose indices are the robot's own).
+    /// The history from segment boundary `k` (the robot's count, clamped
+    /// to those held) to its end as a prepared path (pose indices are the
+    /// robot's own).
     pub fn window_from(&self, k: usize) -> Option<PreparedPath> {
         self.window_between(k, None)
     }
 
     /// The history from segment boundary `k0` to boundary `k1` (its end
-    /// with `None`; both clamped) as a prepared path.
+    /// with `None`; both the robot's count, clamped to those held) as a
+    /// prepared path.
     pub fn window_between(&self, k0: usize, k1: Option<usize>) -> Option<PreparedPath> {
         let frame = self.frame?;
+        let held = |k: usize| k.saturating_sub(self.dropped.bounds);
+        let (k0, k1) = (held(k0), k1.map(held));
         let h = self.history.now();
         let last = h.xy.len().checked_sub(1)?;
         let grid = |k: usize| {

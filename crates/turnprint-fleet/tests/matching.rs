@@ -6,7 +6,7 @@ use turnprint::geometry::Similarity3;
 use turnprint::online::frontend::Outbox;
 use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint_fleet::fixture::{curvy_drive, random_similarity, Lcg};
-use turnprint_fleet::history::Encoder;
+use turnprint_fleet::history::{Encoder, RobotHistory};
 use turnprint_fleet::payload::{Chunk, FrameInfo};
 use turnprint_fleet::Fleet;
 
@@ -210,4 +210,92 @@ fn kitti_hypotheses() {
     right.sort_by(|x, y| y.total_cmp(x));
     eprintln!("wrong: {:?}", &wrong[..wrong.len().min(12)]);
     eprintln!("right: {:?}", &right[..right.len().min(40)]);
+}
+
+/// A history past its budget holds exactly the newer part of the history
+/// it would hold without one: the same samples, its indices shifted by
+/// what it dropped, and the robot's own segment count.
+#[test]
+fn a_history_past_its_budget_holds_the_tail_of_the_whole() {
+    let drive = curvy_drive(3, 2400);
+    let cs = chunks(&drive, 1);
+    let budget = 96 << 10;
+    let (mut whole, mut held) = (RobotHistory::default(), RobotHistory::with_budget(budget));
+    let mut most = 0;
+    for c in &cs {
+        whole.apply(c).expect("whole");
+        held.apply(c).expect("held");
+        most = most.max(held.history.bytes());
+    }
+    let d = held.dropped();
+    eprintln!(
+        "whole {} B, held {} B (at most {most} B), dropped {d:?}",
+        whole.history.bytes(),
+        held.history.bytes()
+    );
+    assert!(
+        whole.history.bytes() > 2 * budget,
+        "the drive fits the budget"
+    );
+    assert!(most <= budget, "{most} B held over a budget of {budget} B");
+    assert!(d.bounds > 0 && d.grid > 0 && d.sig > 0, "nothing dropped");
+    let (w, h) = (&whole.history, &held.history);
+    assert_eq!(h.xy, w.xy[d.grid..]);
+    assert_eq!(h.s, w.s[d.grid..]);
+    assert_eq!(h.pose, w.pose[d.grid..]);
+    assert_eq!(h.curvature, w.curvature[d.grid..]);
+    assert_eq!(h.sig_value, w.sig_value[d.sig..]);
+    let shifted: Vec<f64> = w.sig_grid[d.sig..]
+        .iter()
+        .map(|g| g - d.grid as f64)
+        .collect();
+    assert_eq!(h.sig_grid, shifted);
+    let bounds: Vec<usize> = w.bounds[d.bounds..].iter().map(|b| b - d.sig).collect();
+    assert_eq!(h.bounds, bounds);
+    assert_eq!(held.segments(), whole.segments());
+    assert_eq!(held.length(), whole.length());
+    // A window of held segments is the whole's window of the same segments.
+    let k = whole.segments() - 6;
+    let (a, b) = (
+        held.window_from(k).expect("held window"),
+        whole.window_from(k).expect("whole window"),
+    );
+    assert_eq!(a.track.s, b.track.s);
+    assert_eq!(a.signature.value, b.signature.value);
+}
+
+/// A robot whose history outgrows the budget still places another that
+/// shares the part it holds, and its memory stays within the budget.
+#[test]
+fn a_robot_past_its_history_budget_still_places_the_other() {
+    let drive = curvy_drive(1, 2400);
+    let mut rng = Lcg::new(11);
+    let (ta, tb) = (random_similarity(&mut rng), random_similarity(&mut rng));
+    // A drives the whole; B its second half: A's first half is dropped.
+    let a: Vec<_> = drive.iter().map(|p| ta.apply(p)).collect();
+    let b: Vec<_> = drive[1400..].iter().map(|p| tb.apply(p)).collect();
+    let (ca, cb) = (chunks(&a, 1), chunks(&b, 2));
+    let budget = 96 << 10;
+    let mut fleet = Fleet::with_budget("a", 1, budget);
+    let mut most = 0;
+    for i in 0..ca.len().max(cb.len()) {
+        if let Some(c) = ca.get(i) {
+            fleet.own_chunk(c).expect("own chunk");
+        }
+        if let Some(c) = cb.get(i) {
+            fleet.receive("b", &c.encode());
+        }
+        fleet.match_new(i + 1 == ca.len().max(cb.len()));
+        most = most.max(fleet.own().history.bytes());
+    }
+    eprintln!("{}", fleet.stats_json());
+    assert!(fleet.own().dropped().bounds > 0, "A dropped nothing");
+    assert!(most <= budget, "{most} B held over a budget of {budget} B");
+    let est = fleet.estimates();
+    let b_est = est["b"].as_ref().expect("b merged");
+    let truth = ta.compose(&tb.inverse());
+    let common: Vec<_> = drive[1400..].iter().map(|p| tb.apply(p)).collect();
+    let e = error(&b_est.similarity, &truth, &common, 1000.0 * ta.scale);
+    eprintln!("b placed within {:.2} % of the common length", 100.0 * e);
+    assert!(e < 0.03, "b misplaced by {e}");
 }
