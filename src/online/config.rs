@@ -58,7 +58,7 @@ pub struct OnlineConfig {
     /// it after the first grow round (`search::FIRST_ROUND_CUT`: the same
     /// candidates on every evaluation path, worker instructions streaming
     /// KITTI 00 188.5 M -> 175.0 M), and a drifting source's start whose
-    /// scale growth cannot bring within `search::DRIFT_SCALE` (175.0 M ->
+    /// scale growth cannot bring within `gate::DRIFT_SCALE` (175.0 M ->
     /// 163.0 M). Off only to check those claims
     /// (`tests/online_gate.rs`).
     pub prior_gate: bool,

@@ -31,6 +31,7 @@ pub mod detector;
 pub mod drift_path;
 pub mod events;
 pub mod frontend;
+mod gate;
 pub mod guard;
 pub mod history;
 pub mod network;

@@ -4,10 +4,11 @@
 //! roads), its gates, and the candidate grown from it.
 
 use super::events::Source;
+use super::gate::emitted;
 use super::history::HistoryView;
 use super::probe::Probed;
 use super::register;
-use super::search::{emitted, grow_seeded, Found, Frame, Searcher};
+use super::search::{grow_seeded, Found, Frame, Searcher};
 use super::OnlineConfig;
 
 /// Probe periods of track samples the network registration places: about
