@@ -299,3 +299,91 @@ fn a_robot_past_its_history_budget_still_places_the_other() {
     eprintln!("b placed within {:.2} % of the common length", 100.0 * e);
     assert!(e < 0.03, "b misplaced by {e}");
 }
+
+/// A peer whose payloads arrive corrupted (bytes flipped, cut short, a
+/// chunk repeated or skipped) after an intact start of its session, to a
+/// robot whose histories are past their budget: every payload is taken in,
+/// ignored or refused with a reason, never a panic, and the robot still
+/// places the other once an intact session of it arrives.
+#[test]
+fn corrupted_payloads_past_the_budget_are_refused_not_a_panic() {
+    let drive = curvy_drive(5, 2400);
+    let mut rng = Lcg::new(17);
+    let (ta, tb) = (random_similarity(&mut rng), random_similarity(&mut rng));
+    let a: Vec<_> = drive.iter().map(|p| ta.apply(p)).collect();
+    let b: Vec<_> = drive[1000..].iter().map(|p| tb.apply(p)).collect();
+    let ca = chunks(&a, 1);
+    let mut fleet = Fleet::with_budget("a", 1, 64 << 10);
+    for c in &ca {
+        fleet.own_chunk(c).expect("own chunk");
+    }
+    let mut outcomes = std::collections::BTreeMap::<&str, usize>::new();
+    let mut dropped = 0;
+    for round in 0..200u64 {
+        // A new session of B each round: its chunks intact up to `k`.
+        let cb = chunks(&b, 100 + round);
+        let k = (rng.next_f64() * cb.len() as f64) as usize % cb.len();
+        for c in &cb[..k] {
+            fleet.receive("b", &c.encode());
+        }
+        // The next chunk, the last one again, or one ahead.
+        let at = match round % 3 {
+            0 => k,
+            1 => k.saturating_sub(1),
+            _ => k + 2,
+        }
+        .min(cb.len() - 1);
+        let mut bytes = cb[at].encode();
+        match round % 5 {
+            0 | 1 => {
+                for _ in 0..1 + round % 3 {
+                    let i = (rng.next_f64() * bytes.len() as f64) as usize % bytes.len();
+                    bytes[i] ^= 1 << (round % 8);
+                }
+            }
+            2 => bytes.truncate((rng.next_f64() * bytes.len() as f64) as usize),
+            // Intact: repeated, next or ahead.
+            _ => {}
+        }
+        let outcome = match fleet.receive("b", &bytes) {
+            turnprint_fleet::Received::Applied => "applied",
+            turnprint_fleet::Received::Ignored => "ignored",
+            turnprint_fleet::Received::CatchUp => "catch-up",
+            turnprint_fleet::Received::Refused(_) => "refused",
+        };
+        *outcomes.entry(outcome).or_default() += 1;
+        let stats = fleet.stats_json();
+        dropped += stats["peers"]["b"]["dropped_segments"]
+            .as_u64()
+            .unwrap_or(0)
+            .min(1);
+        if round % 10 == 0 {
+            fleet.match_new(true);
+        }
+    }
+    eprintln!(
+        "{outcomes:?}, refused {:?}, B's history past the budget in {dropped} rounds",
+        fleet.refused()
+    );
+    for o in ["applied", "ignored", "refused"] {
+        assert!(
+            outcomes.get(o).is_some_and(|&n| n > 0),
+            "no payload {o}: {outcomes:?}"
+        );
+    }
+    assert!(dropped > 0, "B's history never passed the budget");
+    assert!(fleet.own().dropped().bounds > 0, "A dropped nothing");
+    // An intact new session of B, in order.
+    let cb = chunks(&b, 1000);
+    for (i, c) in cb.iter().enumerate() {
+        fleet.receive("b", &c.encode());
+        fleet.match_new(i + 1 == cb.len());
+    }
+    let est = fleet.estimates();
+    let b_est = est["b"].as_ref().expect("b merged");
+    let truth = ta.compose(&tb.inverse());
+    let common: Vec<_> = drive[1000..].iter().map(|p| tb.apply(p)).collect();
+    let e = error(&b_est.similarity, &truth, &common, 1400.0 * ta.scale);
+    eprintln!("b placed within {:.2} % of the common length", 100.0 * e);
+    assert!(e < 0.03, "b misplaced by {e}");
+}
