@@ -65,6 +65,49 @@ fn error(est: &Similarity3, truth: &Similarity3, points: &[Vector3<f64>], common
     d[d.len() / 2] / common
 }
 
+/// Robot A driving the whole of a curvy drive and B its part from pose
+/// `from` on, each under its own random similarity (`rng_seed`): the drive,
+/// A's and B's frames, their paths.
+#[allow(clippy::type_complexity)]
+fn whole_and_tail(
+    drive_seed: u64,
+    rng_seed: u64,
+    from: usize,
+) -> (
+    Vec<Vector3<f64>>,
+    Similarity3,
+    Similarity3,
+    Vec<Vector3<f64>>,
+    Vec<Vector3<f64>>,
+) {
+    let drive = curvy_drive(drive_seed, 2400);
+    let mut rng = Lcg::new(rng_seed);
+    let (ta, tb) = (random_similarity(&mut rng), random_similarity(&mut rng));
+    let a: Vec<_> = drive.iter().map(|p| ta.apply(p)).collect();
+    let b: Vec<_> = drive[from..].iter().map(|p| tb.apply(p)).collect();
+    (drive, ta, tb, a, b)
+}
+
+/// How far `fleet` places robot B off its truth (`a_T_b = ta * tb⁻¹`), on
+/// the drive's poses from `from` on, as a fraction of their length `common`
+/// (drive units); panics when B is not placed.
+fn b_error(
+    fleet: &Fleet,
+    drive: &[Vector3<f64>],
+    ta: &Similarity3,
+    tb: &Similarity3,
+    from: usize,
+    common: f64,
+) -> f64 {
+    let est = fleet.estimates();
+    let b_est = est["b"].as_ref().expect("b merged");
+    let truth = ta.compose(&tb.inverse());
+    let points: Vec<_> = drive[from..].iter().map(|p| tb.apply(p)).collect();
+    let e = error(&b_est.similarity, &truth, &points, common * ta.scale);
+    eprintln!("b placed within {:.2} % of the common length", 100.0 * e);
+    e
+}
+
 #[test]
 fn two_robots_that_share_road_place_each_other_and_a_stranger_is_left_out() {
     let drive = curvy_drive(1, 2400);
@@ -268,12 +311,8 @@ fn a_history_past_its_budget_holds_the_tail_of_the_whole() {
 /// shares the part it holds, and its memory stays within the budget.
 #[test]
 fn a_robot_past_its_history_budget_still_places_the_other() {
-    let drive = curvy_drive(1, 2400);
-    let mut rng = Lcg::new(11);
-    let (ta, tb) = (random_similarity(&mut rng), random_similarity(&mut rng));
-    // A drives the whole; B its second half: A's first half is dropped.
-    let a: Vec<_> = drive.iter().map(|p| ta.apply(p)).collect();
-    let b: Vec<_> = drive[1400..].iter().map(|p| tb.apply(p)).collect();
+    // A drives the whole; B its last 1000 poses: A's first half is dropped.
+    let (drive, ta, tb, a, b) = whole_and_tail(1, 11, 1400);
     let (ca, cb) = (chunks(&a, 1), chunks(&b, 2));
     let budget = 96 << 10;
     let mut fleet = Fleet::with_budget("a", 1, budget);
@@ -291,12 +330,7 @@ fn a_robot_past_its_history_budget_still_places_the_other() {
     eprintln!("{}", fleet.stats_json());
     assert!(fleet.own().dropped().bounds > 0, "A dropped nothing");
     assert!(most <= budget, "{most} B held over a budget of {budget} B");
-    let est = fleet.estimates();
-    let b_est = est["b"].as_ref().expect("b merged");
-    let truth = ta.compose(&tb.inverse());
-    let common: Vec<_> = drive[1400..].iter().map(|p| tb.apply(p)).collect();
-    let e = error(&b_est.similarity, &truth, &common, 1000.0 * ta.scale);
-    eprintln!("b placed within {:.2} % of the common length", 100.0 * e);
+    let e = b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0);
     assert!(e < 0.03, "b misplaced by {e}");
 }
 
@@ -307,11 +341,8 @@ fn a_robot_past_its_history_budget_still_places_the_other() {
 /// places the other once an intact session of it arrives.
 #[test]
 fn corrupted_payloads_past_the_budget_are_refused_not_a_panic() {
-    let drive = curvy_drive(5, 2400);
-    let mut rng = Lcg::new(17);
-    let (ta, tb) = (random_similarity(&mut rng), random_similarity(&mut rng));
-    let a: Vec<_> = drive.iter().map(|p| ta.apply(p)).collect();
-    let b: Vec<_> = drive[1000..].iter().map(|p| tb.apply(p)).collect();
+    let (drive, ta, tb, a, b) = whole_and_tail(5, 17, 1000);
+    let mut rng = Lcg::new(19);
     let ca = chunks(&a, 1);
     let mut fleet = Fleet::with_budget("a", 1, 64 << 10);
     for c in &ca {
@@ -379,11 +410,6 @@ fn corrupted_payloads_past_the_budget_are_refused_not_a_panic() {
         fleet.receive("b", &c.encode());
         fleet.match_new(i + 1 == cb.len());
     }
-    let est = fleet.estimates();
-    let b_est = est["b"].as_ref().expect("b merged");
-    let truth = ta.compose(&tb.inverse());
-    let common: Vec<_> = drive[1000..].iter().map(|p| tb.apply(p)).collect();
-    let e = error(&b_est.similarity, &truth, &common, 1400.0 * ta.scale);
-    eprintln!("b placed within {:.2} % of the common length", 100.0 * e);
+    let e = b_error(&fleet, &drive, &ta, &tb, 1000, 1400.0);
     assert!(e < 0.03, "b misplaced by {e}");
 }
