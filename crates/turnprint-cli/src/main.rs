@@ -103,7 +103,7 @@ enum Command {
         /// Input format (auto, tum, kitti, euroc, xyz, gpx, csv, mcap).
         #[arg(long, default_value = "auto")]
         format: Format,
-        /// Node group: auto (Sim3 when the loops' scales drift), se3 (metric odometry: LiDAR, stereo, VIO, wheels) or sim3 (monocular)
+        /// Node group: auto (Sim3 when loops whose shape fixes a scale show it drifting), se3 (metric odometry: LiDAR, stereo, VIO, wheels) or sim3 (monocular: its loops often fix no scale)
         #[arg(long, default_value = "auto", value_parser = group)]
         group: turnprint::correct::Group,
     },
