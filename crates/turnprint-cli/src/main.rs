@@ -86,7 +86,10 @@ enum Command {
         /// Output TUM file: one pose per pose of A, in A's order and frame.
         #[arg(short, long)]
         output: PathBuf,
-        /// Print one JSON object (cli.md) with the loops kept and rejected.
+        /// Print one JSON object (cli.md) with the loops kept and rejected;
+        /// also the graph's `group`, and per loop `reversed`, `residual`
+        /// (sigmas after the solve), `scale` and `scale_shown` (whether the
+        /// passes' shape fixes that scale: only those count for `auto`).
         #[arg(long)]
         json: bool,
         /// Take the loops from this file (the object `loops --json` prints)
@@ -632,6 +635,7 @@ fn run_correct(
                     "query_range": c.query_range, "match_range": c.match_range,
                     "score": c.score, "reversed": c.reversed, "kept": l.kept,
                     "residual": if l.residual.is_finite() { json!(l.residual) } else { json!(null) },
+                    "scale": c.query_T_match.scale, "scale_shown": c.scale_shown,
                 })
             })
             .collect();

@@ -681,3 +681,106 @@ fn merge_of_many_paths_places_the_walks_and_leaves_the_drive_out() {
         start += n;
     }
 }
+
+/// `correct` as `cli.md` has it, on real drifting odometry (S-PTAM, KITTI
+/// 00): one pose per input pose in A's order and frame, the JSON summary
+/// with every loop's verdict (and the scale the group was chosen from),
+/// the graph in g2o text, the figure; a group that is no group refused.
+#[test]
+fn correct_json_follows_the_contract() {
+    let Some(sptam) = data("evo/KITTI_00_SPTAM.txt") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (out_tum, g2o, svg) = (
+        dir.path().join("corrected.tum"),
+        dir.path().join("graph.g2o"),
+        dir.path().join("corrected.svg"),
+    );
+    let out = turnprint_ok(&[
+        "correct",
+        &sptam,
+        "-o",
+        out_tum.to_str().unwrap(),
+        "--json",
+        "--g2o",
+        g2o.to_str().unwrap(),
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let input = read_positions(&sptam);
+    assert_eq!(v["poses"], input.len());
+    assert!(
+        ["SE3", "Sim3"].contains(&v["group"].as_str().unwrap()),
+        "{v}"
+    );
+    let loops = v["loops"].as_array().unwrap();
+    let kept = loops.iter().filter(|l| l["kept"] == true).count();
+    assert!(kept > 0, "no loop kept on S-PTAM 00: {v}");
+    assert_eq!(v["kept"], kept);
+    assert_eq!(v["rejected"], loops.len() - kept);
+    for l in loops {
+        for key in ["query_range", "match_range"] {
+            let r = l[key].as_array().unwrap();
+            let (a, b) = (r[0].as_u64().unwrap(), r[1].as_u64().unwrap());
+            assert!(a <= b && (b as usize) < input.len(), "{l}");
+        }
+        assert!(
+            l["score"].as_f64().is_some() && l["reversed"].is_boolean(),
+            "{l}"
+        );
+        assert!(
+            l["scale"].as_f64().unwrap() > 0.0 && l["scale_shown"].is_boolean(),
+            "{l}"
+        );
+    }
+    assert!(v["seconds"].as_f64().unwrap() >= 0.0);
+    // One pose per input pose, the first where it was, the index as time.
+    let text = std::fs::read_to_string(&out_tum).unwrap();
+    let poses: Vec<Vec<f64>> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split_whitespace().map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(poses.len(), input.len());
+    assert!(poses.iter().all(|p| p.len() == 8));
+    assert_eq!(poses[10][0], 10.0);
+    let first = nalgebra::Vector3::new(poses[0][1], poses[0][2], poses[0][3]);
+    assert!(
+        (first - input[0]).norm() < 1e-6,
+        "{first} against {}",
+        input[0]
+    );
+    let graph = std::fs::read_to_string(&g2o).unwrap();
+    assert!(graph.starts_with("VERTEX_") && graph.trim_end().ends_with("FIX 0"));
+    let figure = std::fs::read_to_string(&svg).unwrap();
+    assert!(figure.contains("<svg"), "not an SVG");
+    // The group named; one that is none refused with the choices.
+    let out = turnprint_ok(&[
+        "correct",
+        &sptam,
+        "-o",
+        out_tum.to_str().unwrap(),
+        "--json",
+        "--group",
+        "sim3",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["group"], "Sim3");
+    let out = turnprint(&[
+        "correct",
+        &sptam,
+        "-o",
+        out_tum.to_str().unwrap(),
+        "--group",
+        "bogus",
+    ]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("bogus") && stderr.contains("se3"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
