@@ -77,6 +77,20 @@ impl Group {
     }
 }
 
+impl std::str::FromStr for Group {
+    type Err = String;
+
+    /// `auto`, `se3` or `sim3`, in any case.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(Group::Auto),
+            "se3" => Ok(Group::Se3),
+            "sim3" => Ok(Group::Sim3),
+            _ => Err(format!("'{s}' is not a group (auto, se3, sim3)")),
+        }
+    }
+}
+
 /// Odometry noise as a random walk over the whole path: an edge of length
 /// `d` on a path of length `L` gets variances that sum, over the path, to the
 /// totals below, whatever the keyframe spacing.

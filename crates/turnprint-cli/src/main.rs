@@ -237,13 +237,7 @@ fn score_in_unit_interval(s: &str) -> Result<f64, String> {
 
 /// A node group by name.
 fn group(s: &str) -> Result<turnprint::correct::Group, String> {
-    use turnprint::correct::Group;
-    match s.to_ascii_lowercase().as_str() {
-        "auto" => Ok(Group::Auto),
-        "se3" => Ok(Group::Se3),
-        "sim3" => Ok(Group::Sim3),
-        _ => Err(format!("'{s}' is not a group (auto, se3, sim3)")),
-    }
+    s.parse()
 }
 
 fn main() -> ExitCode {

@@ -298,16 +298,22 @@ pub fn find_loops(
 
 /// The path `points` without the drift its loops reveal, `(N, 3)`, one
 /// position per input position: `turnprint::correct::correct` with the
-/// default settings (the loops of `find_loops`, a robust pose graph).
+/// default settings (the loops of `find_loops`, a robust pose graph) in the
+/// node group `group`: `"auto"`, `"se3"` (metric odometry) or `"sim3"`
+/// (monocular).
 #[pyfunction]
-#[pyo3(signature = (points, times = None))]
+#[pyo3(signature = (points, times = None, group = "auto"))]
 pub fn correct<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     times: Option<&Bound<'py, PyAny>>,
+    group: &str,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let path = poses(points, times, None)?;
-    let config = turnprint::correct::CorrectConfig::default();
+    let config = turnprint::correct::CorrectConfig {
+        group: group.parse().map_err(PyValueError::new_err)?,
+        ..Default::default()
+    };
     let corrected = py
         .detach(|| turnprint::correct::correct(&path, &config))
         .map_err(error)?;

@@ -277,6 +277,10 @@ def test_correct_returns_one_finite_position_per_pose(gt):
     np.testing.assert_allclose(fixed[0], drifted[0], atol=1e-6)
     err = lambda p: float(np.median(np.linalg.norm(p - gt, axis=1)))  # noqa: E731
     assert err(fixed) < err(drifted), (err(fixed), err(drifted))
+    # The node group named, in any case; one that is none refused.
+    assert turnprint.correct(drifted, group="SE3").shape == gt.shape
+    with pytest.raises(ValueError, match="'bogus' is not a group"):
+        turnprint.correct(drifted, group="bogus")
 
 
 # --- bad input -------------------------------------------------------------

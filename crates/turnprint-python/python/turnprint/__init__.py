@@ -129,11 +129,12 @@ def find_loops(points, top=None) -> list[Hypothesis]:
     return _native.find_loops(points, top)
 
 
-def correct(points, times=None) -> _np.ndarray:
+def correct(points, times=None, group="auto") -> _np.ndarray:
     """`points` without the drift its loops reveal: the corrected
     positions, (N, 3), row i for row i (as `turnprint correct`). A path
-    with no loop kept comes back unchanged."""
-    return _native.correct(points, times)
+    with no loop kept comes back unchanged. `group`: "auto", "se3" (metric
+    odometry) or "sim3" (monocular), as `turnprint correct --group`."""
+    return _native.correct(points, times, group)
 
 
 def write_tum(path, points, times=None, orientations=None) -> None:
