@@ -697,18 +697,18 @@ fn correct_json_follows_the_contract() {
         dir.path().join("graph.g2o"),
         dir.path().join("corrected.svg"),
     );
-    let out = turnprint_ok(&[
-        "correct",
-        &sptam,
-        "-o",
-        out_tum.to_str().unwrap(),
-        "--json",
+    // `correct A -o OUT --json` with `extra`, its JSON.
+    let correct_json = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec!["correct", &sptam, "-o", out_tum.to_str().unwrap(), "--json"];
+        args.extend_from_slice(extra);
+        serde_json::from_slice(&turnprint_ok(&args).stdout).unwrap()
+    };
+    let v = correct_json(&[
         "--g2o",
         g2o.to_str().unwrap(),
         "--plot",
         svg.to_str().unwrap(),
     ]);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let input = read_positions(&sptam);
     assert_eq!(v["poses"], input.len());
     assert!(
@@ -757,17 +757,7 @@ fn correct_json_follows_the_contract() {
     let figure = std::fs::read_to_string(&svg).unwrap();
     assert!(figure.contains("<svg"), "not an SVG");
     // The group named; one that is none refused with the choices.
-    let out = turnprint_ok(&[
-        "correct",
-        &sptam,
-        "-o",
-        out_tum.to_str().unwrap(),
-        "--json",
-        "--group",
-        "sim3",
-    ]);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(v["group"], "Sim3");
+    assert_eq!(correct_json(&["--group", "sim3"])["group"], "Sim3");
     let out = turnprint(&[
         "correct",
         &sptam,
