@@ -510,20 +510,20 @@ fn garbage_and_a_newer_version_are_refused_and_counted() {
     // Once A's status arrives, A hears what the peer publishes.
     rx.recv_timeout(DEADLINE).expect("A's status");
     let newer = {
-        let mut p = turnprint_fleet::payload::encode_status(1, 0);
+        let mut p = turnprint_fleet::payload::encode_status(1, 0, 0);
         p[4..6].copy_from_slice(&(turnprint_fleet::payload::VERSION + 1).to_le_bytes());
         p
     };
     let garbage: [Vec<u8>; 3] = [
         b"hello".to_vec(),
         vec![0xff; 300],
-        turnprint_fleet::payload::encode_status(1, 0)[..10].to_vec(),
+        turnprint_fleet::payload::encode_status(1, 0, 0)[..10].to_vec(),
     ];
     for g in garbage {
-        evil.publish(g, false).expect("publishing");
+        evil.publish(g).expect("publishing");
     }
     for _ in 0..2 {
-        evil.publish(newer.clone(), false).expect("publishing");
+        evil.publish(newer.clone()).expect("publishing");
     }
     let (sa, sb) = (a.summary(), b.summary());
     drop(evil);

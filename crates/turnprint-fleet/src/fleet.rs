@@ -127,6 +127,9 @@ struct Peer {
     /// The hypotheses of the final sweep, once both paths have ended (or
     /// the robot stops), and the segments it saw.
     settled: Option<(Vec<Hypothesis>, (usize, usize))>,
+    /// The chunk the history starts at: 0, or the first the robot still
+    /// served when this one needed an older.
+    started_at: u32,
 }
 
 impl Peer {
@@ -143,7 +146,23 @@ impl Peer {
             emitted: Vec::new(),
             ended: false,
             settled: None,
+            started_at: 0,
         }
+    }
+
+    /// Starts the history again at chunk `first`, the oldest the robot
+    /// still serves, when this one needs an older: the chunks in between
+    /// are gone, and a history cannot skip them. The hypotheses found stay
+    /// (their pose indices are the robot's own); its segments are counted
+    /// and matched anew.
+    fn start_at(&mut self, first: u32, budget: usize) {
+        self.history = RobotHistory::joining_late(budget);
+        self.next_seq = first;
+        self.stash = self.stash.split_off(&first);
+        self.peer_done = 0;
+        self.whole_done = 0;
+        self.settled = None;
+        self.started_at = first;
     }
 }
 
@@ -254,23 +273,36 @@ impl Fleet {
             *peer = Peer::new(epoch, self.budget);
             self.restarts += 1;
         }
-        let chunk = match message {
-            Message::Status { chunks, .. } if chunks > peer.next_seq => return Received::CatchUp,
-            Message::Status { .. } => return Received::Ignored,
-            Message::Chunk(c) => *c,
-        };
-        if chunk.seq < peer.next_seq || peer.stash.contains_key(&chunk.seq) {
-            return Received::Ignored;
-        }
-        if chunk.seq > peer.next_seq {
-            if peer.stash.len() < MAX_STASHED {
-                peer.stash.insert(chunk.seq, chunk);
+        let mut next = match message {
+            Message::Status { chunks, first, .. } => {
+                if first <= peer.next_seq {
+                    return match chunks > peer.next_seq {
+                        true => Received::CatchUp,
+                        false => Received::Ignored,
+                    };
+                }
+                peer.start_at(first, self.budget);
+                peer.stash.remove(&first)
             }
+            Message::Chunk(c) => {
+                let chunk = *c;
+                if chunk.seq < peer.next_seq || peer.stash.contains_key(&chunk.seq) {
+                    return Received::Ignored;
+                }
+                if chunk.seq > peer.next_seq {
+                    if peer.stash.len() < MAX_STASHED {
+                        peer.stash.insert(chunk.seq, chunk);
+                    }
+                    return Received::CatchUp;
+                }
+                Some(chunk)
+            }
+        };
+        if next.is_none() {
             return Received::CatchUp;
         }
-        let mut next = Some(chunk);
         let mut broken = None;
-        while let Some(c) = next {
+        while let Some(c) = next.take() {
             if let Err(why) = peer.history.apply(&c) {
                 broken = Some(why);
                 break;
@@ -459,6 +491,7 @@ impl Fleet {
                         "hypotheses": p.found.len(),
                         "history_bytes": p.history.history.bytes(),
                         "dropped_segments": p.history.dropped().bounds,
+                        "started_at_chunk": p.started_at,
                     }),
                 )
             })

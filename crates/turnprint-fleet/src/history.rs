@@ -105,6 +105,9 @@ pub struct RobotHistory {
     origin: Option<f64>,
     /// Bytes held at most ([`HISTORY_BUDGET`]).
     budget: usize,
+    /// Joined late and not started yet: the first chunk with track samples
+    /// starts the history wherever it lies in the robot's track.
+    late: bool,
 }
 
 impl Default for RobotHistory {
@@ -124,6 +127,19 @@ impl RobotHistory {
             dropped: Dropped::default(),
             origin: None,
             budget,
+            late: false,
+        }
+    }
+
+    /// An empty history of a robot whose older chunks are served no more
+    /// (the sender's store is bounded): it starts at the first track sample
+    /// of the first chunk given, wherever that lies in the robot's track,
+    /// and counts segments from there ([`Self::dropped`] holds where it
+    /// started, with no boundaries).
+    pub fn joining_late(budget: usize) -> Self {
+        RobotHistory {
+            late: true,
+            ..Self::with_budget(budget)
         }
     }
 
@@ -137,6 +153,9 @@ impl RobotHistory {
     /// not continue the history is refused whole (the history is left as
     /// it was). Past the budget, the older half is dropped ([`Self::trim`]).
     pub fn apply(&mut self, c: &Chunk) -> Result<(), String> {
+        if self.late {
+            return self.start(c);
+        }
         let h = &self.history;
         let d = self.dropped;
         let sig_held = d.sig + h.sig_value.len();
@@ -154,7 +173,9 @@ impl RobotHistory {
             (None, _) if c.grid_end as usize != held => {
                 return Err("track samples announced but not sent".into())
             }
-            (Some(k), None) if k.index != 0 => return Err("the track does not start at 0".into()),
+            (Some(k), None) if k.index as usize != d.grid => {
+                return Err(format!("the track does not start at {}", d.grid))
+            }
             (Some(k), Some(l)) if k.index <= l.index || k.s < l.s || k.pose < l.pose => {
                 return Err("the track does not continue".into())
             }
@@ -213,6 +234,36 @@ impl RobotHistory {
             self.trim();
         }
         Ok(())
+    }
+
+    /// The first chunk of a history joined late: its samples from its first
+    /// kept track sample on (the signature samples and boundaries before
+    /// it lie on track samples that were not sent). A chunk without track
+    /// samples is passed over.
+    fn start(&mut self, c: &Chunk) -> Result<(), String> {
+        let Some(k0) = c.kept.first() else {
+            return Ok(());
+        };
+        let skip = c.sig.iter().take_while(|s| s.1 < k0.index as f64).count();
+        let sig0 = c.sig0.saturating_add(skip as u32);
+        let tail = Chunk {
+            sig0,
+            sig: c.sig[skip..].to_vec(),
+            bounds: c.bounds.iter().copied().filter(|&b| b >= sig0).collect(),
+            ..c.clone()
+        };
+        self.late = false;
+        self.dropped = Dropped {
+            grid: k0.index as usize,
+            sig: sig0 as usize,
+            bounds: 0,
+        };
+        let applied = self.apply(&tail);
+        if applied.is_err() {
+            self.late = true;
+            self.dropped = Dropped::default();
+        }
+        applied
     }
 
     /// Drops the older half of the history held: everything before the

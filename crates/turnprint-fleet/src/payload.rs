@@ -3,12 +3,13 @@
 //! binary with a magic, an explicit version and lengths that are checked
 //! against the bytes before anything is read.
 //!
-//! Layout of version 1 (all little-endian):
+//! Layout of version 2 (all little-endian):
 //!
 //! ```text
 //! "TPFL"  u16 version  u8 kind  u8 flags
-//! kind 1, a status (sent every second: what a robot has published):
-//! u64 epoch  u32 chunks
+//! kind 1, a status (sent every second: what a robot has published, and
+//! the first chunk it still serves to a robot catching up):
+//! u64 epoch  u32 chunks  u32 first
 //! kind 0, a chunk (flags bit 0: the robot's stream ended):
 //! u64 epoch  u32 seq  u32 poses
 //! plane: f64 x 3 origin, f64 x 9 world_R_plane (row-major)
@@ -29,7 +30,7 @@ use turnprint::geometry::Plane;
 
 /// The version this build writes and reads. A payload of a newer version is
 /// refused (counted as `version`), not guessed at.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 
 /// First bytes of every payload.
 const MAGIC: &[u8; 4] = b"TPFL";
@@ -123,18 +124,23 @@ pub enum Message {
         epoch: u64,
         /// Chunks published in it.
         chunks: u32,
+        /// The first chunk it still serves (the older ones were dropped
+        /// from its bounded store): a receiver missing an older one starts
+        /// the robot's history here.
+        first: u32,
     },
 }
 
 /// The payload of a status.
-pub fn encode_status(epoch: u64, chunks: u32) -> Vec<u8> {
-    let mut b = Vec::with_capacity(20);
+pub fn encode_status(epoch: u64, chunks: u32, first: u32) -> Vec<u8> {
+    let mut b = Vec::with_capacity(24);
     b.extend_from_slice(MAGIC);
     b.extend_from_slice(&VERSION.to_le_bytes());
     b.push(1);
     b.push(0);
     b.extend_from_slice(&epoch.to_le_bytes());
     b.extend_from_slice(&chunks.to_le_bytes());
+    b.extend_from_slice(&first.to_le_bytes());
     b
 }
 
@@ -164,11 +170,18 @@ pub fn decode(bytes: &[u8]) -> Result<Message, Refusal> {
             if r.u8()? != 0 {
                 return Err(garbage("unknown flags"));
             }
-            let (epoch, chunks) = (r.u64()?, r.u32()?);
+            let (epoch, chunks, first) = (r.u64()?, r.u32()?, r.u32()?);
             if r.at != bytes.len() {
                 return Err(garbage("bytes after the payload"));
             }
-            Ok(Message::Status { epoch, chunks })
+            if first > chunks {
+                return Err(garbage("a first chunk served past those published"));
+            }
+            Ok(Message::Status {
+                epoch,
+                chunks,
+                first,
+            })
         }
         _ => Err(garbage("unknown payload kind")),
     }
@@ -439,15 +452,20 @@ mod tests {
                 Err(Refusal::Garbage(_))
             ));
         }
-        let status = encode_status(9, 4);
+        let status = encode_status(9, 4, 2);
         assert_eq!(
             decode(&status),
             Ok(Message::Status {
                 epoch: 9,
-                chunks: 4
+                chunks: 4,
+                first: 2
             })
         );
-        assert!(matches!(decode(&status[..19]), Err(Refusal::Garbage(_))));
+        assert!(matches!(decode(&status[..23]), Err(Refusal::Garbage(_))));
+        assert!(matches!(
+            decode(&encode_status(9, 4, 5)),
+            Err(Refusal::Garbage(_))
+        ));
         let mut newer = bytes.clone();
         newer[4..6].copy_from_slice(&(VERSION + 1).to_le_bytes());
         assert_eq!(Chunk::decode(&newer), Err(Refusal::Version(VERSION + 1)));

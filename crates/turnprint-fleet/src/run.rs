@@ -21,7 +21,7 @@ use turnprint::Trajectory;
 
 use crate::fleet::{Fleet, Received};
 use crate::history::Encoder;
-use crate::payload::{encode_status, Chunk, FrameInfo};
+use crate::payload::{Chunk, FrameInfo};
 use crate::transport::{Endpoints, Incoming, Transport};
 
 /// How often a robot publishes its status, and the least time between two
@@ -142,7 +142,7 @@ pub fn stream(
     let published = Arc::new(AtomicU32::new(0));
     let stop = Arc::new(AtomicBool::new(false));
     let _stop_on_drop = StopOnDrop(stop.clone());
-    let status = status_thread(transport.clone(), epoch, published.clone(), stop.clone());
+    let status = status_thread(transport.clone(), epoch, stop.clone());
     let (own_tx, own_rx) = unbounded();
     let (cand_tx, cand_rx) = unbounded();
     let matcher = {
@@ -291,7 +291,7 @@ impl Chunker {
         };
         let pending = std::mem::take(&mut self.pending);
         let chunk = self.encoder.chunk(&pending, poses, frame, last);
-        self.transport.publish(chunk.encode(), true)?;
+        self.transport.publish_chunk(chunk.encode())?;
         self.published.fetch_add(1, Ordering::Relaxed);
         let _ = self.own.send(chunk);
         Ok(())
@@ -299,18 +299,12 @@ impl Chunker {
 }
 
 /// Publishes the robot's status every [`STATUS_EVERY`] until `stop`.
-fn status_thread(
-    transport: Arc<Transport>,
-    epoch: u64,
-    published: Arc<AtomicU32>,
-    stop: Arc<AtomicBool>,
-) -> JoinHandle<()> {
+fn status_thread(transport: Arc<Transport>, epoch: u64, stop: Arc<AtomicBool>) -> JoinHandle<()> {
     std::thread::spawn(move || {
         let mut next = Instant::now();
         while !stop.load(Ordering::Relaxed) {
             if Instant::now() >= next {
-                let chunks = published.load(Ordering::Relaxed);
-                let _ = transport.publish(encode_status(epoch, chunks), false);
+                let _ = transport.publish_status(epoch);
                 next += STATUS_EVERY;
             }
             std::thread::sleep(IDLE);

@@ -1,9 +1,10 @@
 //! The Zenoh side: a peer session with the given endpoints, the robot's
 //! payloads published under `turnprint/<fleet>/<robot>/data`, every other
-//! robot's received there, and the robot's whole history served under
-//! `turnprint/<fleet>/<robot>/history` for late joiners and for robots
-//! that missed a chunk.
+//! robot's received there, and the robot's history (its newest chunks, up
+//! to [`STORE_BUDGET`]) served under `turnprint/<fleet>/<robot>/history`
+//! for late joiners and for robots that missed a chunk.
 
+use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -14,11 +15,53 @@ use zenoh::qos::CongestionControl;
 use zenoh::query::{ConsolidationMode, QueryTarget, Queryable};
 use zenoh::{Session, Wait};
 
+use crate::payload::encode_status;
+
 /// How long a catch-up query waits for its replies: far above a loopback
 /// or LAN round trip, short enough that a robot gone silent does not hold
 /// the query open for long.
 const QUERY_TIMEOUT: Duration = Duration::from_secs(5);
 
+/// Bytes of published chunks a robot keeps to serve: past them the oldest
+/// are dropped, and the status tells receivers where the served history
+/// starts. A quarter of [`crate::history::HISTORY_BUDGET`]: chunks take
+/// 14-28 B a pose on the wire (22.4 kB per km of KITTI at about a pose a
+/// metre) against the 80-160 B a pose takes in a receiver's rebuilt
+/// history, so a robot catching up gets at least as much of the path as
+/// its own budget would hold.
+pub const STORE_BUDGET: usize = crate::history::HISTORY_BUDGET / 4;
+
+/// The chunks a robot serves, the newest within a budget.
+#[derive(Debug)]
+struct Store {
+    /// The session, once its first status is out.
+    epoch: Option<u64>,
+    /// Sequence number of the first chunk held (the older were dropped).
+    first: u32,
+    chunks: VecDeque<Vec<u8>>,
+    bytes: usize,
+    budget: usize,
+}
+
+impl Store {
+    fn push(&mut self, payload: Vec<u8>) {
+        self.bytes += payload.len();
+        self.chunks.push_back(payload);
+        // The newest chunk stays whatever its size: a receiver needs the
+        // last one to be told where the robot is.
+        while self.bytes > self.budget && self.chunks.len() > 1 {
+            if let Some(old) = self.chunks.pop_front() {
+                self.bytes -= old.len();
+                self.first += 1;
+            }
+        }
+    }
+
+    /// Chunks published so far.
+    fn published(&self) -> u32 {
+        self.first + self.chunks.len() as u32
+    }
+}
 /// A payload received from another robot.
 #[derive(Debug)]
 pub struct Incoming {
@@ -57,8 +100,8 @@ pub struct Transport {
     publisher: Publisher<'static>,
     _subscriber: Subscriber<()>,
     _queryable: Queryable<()>,
-    /// Every payload published so far (the history served to others).
-    store: Arc<Mutex<Vec<Vec<u8>>>>,
+    /// The newest chunks published (the history served to others).
+    store: Arc<Mutex<Store>>,
     /// Where received payloads go.
     incoming: Sender<Incoming>,
     /// Bytes sent.
@@ -118,7 +161,13 @@ impl Transport {
             })
             .wait()
             .map_err(|e| format!("declaring the subscriber: {e}"))?;
-        let store: Arc<Mutex<Vec<Vec<u8>>>> = Arc::default();
+        let store = Arc::new(Mutex::new(Store {
+            epoch: None,
+            first: 0,
+            chunks: VecDeque::new(),
+            bytes: 0,
+            budget: STORE_BUDGET,
+        }));
         let sent = Arc::new(Sent::default());
         let (served, sent_q) = (store.clone(), sent.clone());
         let history_key = format!("turnprint/{fleet}/{robot}/history");
@@ -126,7 +175,15 @@ impl Transport {
         let queryable = session
             .declare_queryable(history_key)
             .callback(move |query| {
-                let all = served.lock().map(|s| s.clone()).unwrap_or_default();
+                // The status first, so that the receiver knows where the
+                // served history starts before its chunks arrive.
+                let all: Vec<Vec<u8>> = served
+                    .lock()
+                    .map(|s| {
+                        let status = s.epoch.map(|e| encode_status(e, s.published(), s.first));
+                        status.into_iter().chain(s.chunks.iter().cloned()).collect()
+                    })
+                    .unwrap_or_default();
                 sent_q.queries.fetch_add(1, Ordering::Relaxed);
                 for p in all {
                     sent_q.replied.fetch_add(p.len() as u64, Ordering::Relaxed);
@@ -147,26 +204,41 @@ impl Transport {
         })
     }
 
-    /// Publishes a payload; `keep` stores it in the served history (chunks
-    /// are kept, status messages are not).
-    pub fn publish(&self, payload: Vec<u8>, keep: bool) -> Result<(), String> {
+    /// Publishes a chunk (its payload), and keeps it in the served history.
+    pub fn publish_chunk(&self, payload: Vec<u8>) -> Result<(), String> {
+        if let Ok(mut s) = self.store.lock() {
+            s.push(payload.clone());
+        }
+        self.publish(payload)
+    }
+
+    /// Publishes the status of session `epoch`: the chunks published and
+    /// the first still served.
+    pub fn publish_status(&self, epoch: u64) -> Result<(), String> {
+        let status = match self.store.lock() {
+            Ok(mut s) => {
+                s.epoch = Some(epoch);
+                encode_status(epoch, s.published(), s.first)
+            }
+            Err(_) => return Err("the served history's lock was poisoned".into()),
+        };
+        self.publish(status)
+    }
+
+    /// Publishes any payload as this robot (a test's garbage included).
+    pub fn publish(&self, payload: Vec<u8>) -> Result<(), String> {
         self.sent
             .published
             .fetch_add(payload.len() as u64, Ordering::Relaxed);
         self.sent.messages.fetch_add(1, Ordering::Relaxed);
-        if keep {
-            if let Ok(mut s) = self.store.lock() {
-                s.push(payload.clone());
-            }
-        }
         self.publisher
             .put(payload)
             .wait()
             .map_err(|e| format!("publishing: {e}"))
     }
 
-    /// Asks `robot` (or every robot, `*`) for its whole history; the
-    /// replies arrive as received payloads.
+    /// Asks `robot` (or every robot, `*`) for its history (its status,
+    /// then the chunks it serves); the replies arrive as received payloads.
     pub fn catch_up(&self, robot: &str) {
         let tx = self.incoming.clone();
         let _ = self
@@ -187,11 +259,17 @@ impl Transport {
             .wait();
     }
 
-    /// Bytes of the history served to others (all chunks published).
+    /// Bytes of the history served to others (the newest chunks, within
+    /// the store's budget).
     pub fn stored_bytes(&self) -> usize {
-        self.store
-            .lock()
-            .map(|s| s.iter().map(Vec::len).sum())
-            .unwrap_or(0)
+        self.store.lock().map(|s| s.bytes).unwrap_or(0)
+    }
+
+    /// Keeps at most `bytes` of published chunks to serve
+    /// ([`STORE_BUDGET`] unless set).
+    pub fn set_store_budget(&self, bytes: usize) {
+        if let Ok(mut s) = self.store.lock() {
+            s.budget = bytes;
+        }
     }
 }

@@ -1,5 +1,6 @@
-//! The fleet's matching without the transport: robots' chunks handed over
-//! in memory, in the order a live fleet interleaves them.
+//! The fleet's matching: robots' chunks handed over in memory, in the
+//! order a live fleet interleaves them, and a late joiner's catch-up over
+//! real Zenoh sessions on loopback.
 
 use nalgebra::Vector3;
 use turnprint::geometry::Similarity3;
@@ -411,5 +412,171 @@ fn corrupted_payloads_past_the_budget_are_refused_not_a_panic() {
         fleet.match_new(i + 1 == cb.len());
     }
     let e = b_error(&fleet, &drive, &ta, &tb, 1000, 1400.0);
+    assert!(e < 0.03, "b misplaced by {e}");
+}
+
+/// A history joined late (the robot no longer serves its first chunks)
+/// holds exactly the whole history from the first kept track sample of
+/// the first chunk it was given: the same samples, its indices shifted.
+#[test]
+fn a_history_joined_late_holds_the_whole_from_its_first_chunk() {
+    let cs = chunks(&curvy_drive(3, 2400), 1);
+    let mut whole = RobotHistory::default();
+    for c in &cs {
+        whole.apply(c).expect("whole");
+    }
+    for k in [1, cs.len() / 3, cs.len() / 2] {
+        let mut late = RobotHistory::joining_late(turnprint_fleet::history::HISTORY_BUDGET);
+        for c in &cs[k..] {
+            late.apply(c).expect("late");
+        }
+        let d = late.dropped();
+        assert_eq!(d.grid, cs[k].kept[0].index as usize, "chunk {k}");
+        let (w, h) = (&whole.history, &late.history);
+        assert_eq!(h.xy, w.xy[d.grid..]);
+        assert_eq!(h.s, w.s[d.grid..]);
+        assert_eq!(h.pose, w.pose[d.grid..]);
+        assert_eq!(h.sig_value, w.sig_value[d.sig..]);
+        let shifted: Vec<f64> = w.sig_grid[d.sig..]
+            .iter()
+            .map(|g| g - d.grid as f64)
+            .collect();
+        assert_eq!(h.sig_grid, shifted);
+        let from = w.bounds.partition_point(|&b| b < d.sig);
+        let bounds: Vec<usize> = w.bounds[from..].iter().map(|b| b - d.sig).collect();
+        assert_eq!(h.bounds, bounds, "chunk {k}");
+        assert_eq!(late.segments(), whole.segments() - from);
+        assert!(late.window_from(0).is_some());
+    }
+}
+
+/// A robot that needs chunks the other no longer serves (its store is
+/// bounded) starts the other's history at the first chunk served, the
+/// status telling where, and still places it by the road they share.
+#[test]
+fn a_robot_missing_chunks_no_longer_served_starts_at_the_first_served() {
+    let (drive, ta, tb, a, b) = whole_and_tail(1, 11, 1000);
+    let (ca, cb) = (chunks(&a, 1), chunks(&b, 2));
+    let first = cb.len() / 3;
+    let mut fleet = Fleet::new("a", 1);
+    for c in &ca {
+        fleet.own_chunk(c).expect("own chunk");
+    }
+    fleet.own_ended();
+    // A live chunk arrives before the status: it waits for the earlier.
+    let live = cb.len() - 2;
+    assert_eq!(
+        fleet.receive("b", &cb[live].encode()),
+        turnprint_fleet::Received::CatchUp
+    );
+    // The catch-up's answer: the status, then the chunks served.
+    let status = turnprint_fleet::payload::encode_status(2, cb.len() as u32, first as u32);
+    assert_eq!(
+        fleet.receive("b", &status),
+        turnprint_fleet::Received::CatchUp
+    );
+    for c in &cb[first..] {
+        fleet.receive("b", &c.encode());
+    }
+    fleet.match_new(true);
+    let stats = fleet.stats_json();
+    eprintln!("{stats}");
+    let peer = &stats["peers"]["b"];
+    assert_eq!(peer["started_at_chunk"], first);
+    assert_eq!(peer["chunks"], cb.len());
+    assert_eq!(peer["ended"], true);
+    // Placed by the part of B it holds (B's poses of its later part).
+    let held_from = 1000 + b.len() / 3;
+    let common = (drive.len() - held_from) as f64;
+    let e = b_error(&fleet, &drive, &ta, &tb, held_from, common);
+    assert!(e < 0.03, "b misplaced by {e}");
+    // A status that says nothing new changes nothing.
+    assert_eq!(
+        fleet.receive("b", &status),
+        turnprint_fleet::Received::Ignored
+    );
+}
+
+/// A free TCP port on loopback.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// Over real Zenoh sessions: robot B publishes its whole drive with its
+/// served history bounded to a third of its chunks' bytes; robot A joins
+/// after B's drive, asks for B's history and gets the status and the
+/// chunks served: it starts B's history at the first chunk served and
+/// places B by the road they share. B's store stays within its budget.
+#[test]
+fn a_late_joiner_catches_up_from_a_bounded_store_over_zenoh() {
+    use turnprint_fleet::transport::Transport;
+    use turnprint_fleet::Endpoints;
+    let (drive, ta, tb, a, b) = whole_and_tail(1, 11, 1000);
+    let (ca, cb) = (chunks(&a, 1), chunks(&b, 2));
+    let total: usize = cb.iter().map(|c| c.encode().len()).sum();
+    let budget = total / 3;
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let fleet_name = format!("late-{}", std::process::id());
+    let (tx_b, _rx_b) = crossbeam::channel::unbounded();
+    let served = Endpoints {
+        listen: vec![endpoint.clone()],
+        connect: Vec::new(),
+    };
+    let robot_b = Transport::open(&fleet_name, "b", &served, tx_b).expect("B's session");
+    robot_b.set_store_budget(budget);
+    for c in &cb {
+        robot_b.publish_chunk(c.encode()).expect("publishing");
+        assert!(robot_b.stored_bytes() <= budget.max(c.encode().len()));
+    }
+    robot_b.publish_status(2).expect("status");
+    let (tx_a, rx_a) = crossbeam::channel::unbounded();
+    let joining = Endpoints {
+        listen: Vec::new(),
+        connect: vec![endpoint],
+    };
+    let robot_a = Transport::open(&fleet_name, "a", &joining, tx_a).expect("A's session");
+    let mut fleet = Fleet::new("a", 1);
+    for c in &ca {
+        fleet.own_chunk(c).expect("own chunk");
+    }
+    fleet.own_ended();
+    // Ask until B's history is in (the first query may go out before the
+    // session has connected).
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let mut received = 0;
+    while fleet.stats_json()["peers"]["b"]["ended"] != true {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "B's history never came"
+        );
+        robot_a.catch_up("b");
+        while let Ok(m) = rx_a.recv_timeout(std::time::Duration::from_millis(500)) {
+            assert_eq!(m.robot, "b");
+            fleet.receive(&m.robot, &m.bytes);
+            received += 1;
+        }
+    }
+    fleet.match_new(true);
+    let stats = fleet.stats_json();
+    let first = stats["peers"]["b"]["started_at_chunk"]
+        .as_u64()
+        .expect("first");
+    eprintln!(
+        "B: {} chunks, {total} B, served {} B from chunk {first}; A received {received} payloads",
+        cb.len(),
+        robot_b.stored_bytes()
+    );
+    assert!(
+        first > 0,
+        "B served every chunk within a third of their bytes"
+    );
+    assert_eq!(stats["peers"]["b"]["chunks"], cb.len());
+    let held_from = 1000 + (b.len() as u64 * first / cb.len() as u64) as usize;
+    let common = (drive.len() - held_from) as f64;
+    let e = b_error(&fleet, &drive, &ta, &tb, held_from, common);
     assert!(e < 0.03, "b misplaced by {e}");
 }
