@@ -66,10 +66,20 @@ pub fn verify(
     ];
     // The seed's ZNCC compares signatures each at its own resolution; the
     // grown overlap knows the scale, and so a common one.
+    // The overlap's direction is the growth's (the alignment line that
+    // keeps more points), which may differ from the seed's: the hypothesis
+    // reports the direction its correspondences run in.
     let verified = |overlap: Overlap| {
         let negate = overlap.reversed != cand.orientation.mirrored;
         let zncc = cand.zncc.max(overlap_zncc(target, query, &overlap, negate));
-        finish(target, query, query_xy, overlap, cand.clone(), zncc, config)
+        let cand = Candidate {
+            orientation: Orientation {
+                reversed: overlap.reversed,
+                ..cand.orientation
+            },
+            ..cand.clone()
+        };
+        finish(target, query, query_xy, overlap, cand, zncc, config)
     };
     // An overlap too short to verify after one round may still grow.
     let promising = |overlap: &Overlap| {
