@@ -125,8 +125,8 @@ impl KindsReport {
     /// The loop table: one row per kind and input, and one per input for all.
     pub fn loop_table(&self) -> String {
         let mut out = String::from(
-            "| kind | input | runs | events | events covered (top 10): turnprint | naive | rank-1 correct: turnprint | naive | precision of top 10: turnprint | naive |\n\
-             |---|---|--:|--:|--:|--:|--:|--:|--:|--:|\n",
+            "| kind | input | runs | events | events covered (top 10): turnprint | naive | rank-1 correct: turnprint | naive | precision of top 10: turnprint | naive | events covered (top 50): turnprint | naive |\n\
+             |---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n",
         );
         let inputs = [Input::Truth, Input::Walk, Input::Bias, Input::Estimate];
         for (name, kind) in rows() {
@@ -143,7 +143,7 @@ impl KindsReport {
                 let sum = |f: &dyn Fn(&LoopRun) -> usize| runs.iter().map(|r| f(r)).sum::<usize>();
                 let _ = writeln!(
                     out,
-                    "| {name} | {} | {} | {events} | {} | {} | {} | {} | {} | {} |",
+                    "| {name} | {} | {} | {events} | {} | {} | {} | {} | {} | {} | {} | {} |",
                     input.name(),
                     runs.len(),
                     pct(sum(&|r| r.covered[0]), events),
@@ -152,6 +152,8 @@ impl KindsReport {
                     pct(sum(&|r| r.rank1_correct[1] as usize), runs.len()),
                     pct(sum(&|r| r.correct[0]), sum(&|r| r.returned[0])),
                     pct(sum(&|r| r.correct[1]), sum(&|r| r.returned[1])),
+                    pct(sum(&|r| r.covered_wide[0]), events),
+                    pct(sum(&|r| r.covered_wide[1]), events),
                 );
             }
         }
