@@ -151,7 +151,7 @@ impl RobotHistory {
     /// Appends the next chunk: its track samples filled in between the
     /// kept ones, its signature samples and boundaries. A chunk that does
     /// not continue the history is refused whole (the history is left as
-    /// it was). Past the budget, the older half is dropped ([`Self::trim`]).
+    /// it was). Past the budget, the older half is dropped at a segment boundary.
     pub fn apply(&mut self, c: &Chunk) -> Result<(), String> {
         if self.late {
             return self.start(c);

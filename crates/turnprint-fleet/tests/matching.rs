@@ -256,6 +256,28 @@ fn kitti_hypotheses() {
     eprintln!("right: {:?}", &right[..right.len().min(40)]);
 }
 
+/// Asserts that `part` holds exactly `whole` from where it starts
+/// (`part.dropped()`), its indices shifted; returns the boundaries of
+/// `whole` before it.
+fn tail_of(part: &RobotHistory, whole: &RobotHistory) -> usize {
+    let d = part.dropped();
+    let (w, h) = (&whole.history, &part.history);
+    assert_eq!(h.xy, w.xy[d.grid..]);
+    assert_eq!(h.s, w.s[d.grid..]);
+    assert_eq!(h.pose, w.pose[d.grid..]);
+    assert_eq!(h.curvature, w.curvature[d.grid..]);
+    assert_eq!(h.sig_value, w.sig_value[d.sig..]);
+    let shifted: Vec<f64> = w.sig_grid[d.sig..]
+        .iter()
+        .map(|g| g - d.grid as f64)
+        .collect();
+    assert_eq!(h.sig_grid, shifted);
+    let from = w.bounds.partition_point(|&b| b < d.sig);
+    let bounds: Vec<usize> = w.bounds[from..].iter().map(|b| b - d.sig).collect();
+    assert_eq!(h.bounds, bounds);
+    from
+}
+
 /// A history past its budget holds exactly the newer part of the history
 /// it would hold without one: the same samples, its indices shifted by
 /// what it dropped, and the robot's own segment count.
@@ -283,19 +305,7 @@ fn a_history_past_its_budget_holds_the_tail_of_the_whole() {
     );
     assert!(most <= budget, "{most} B held over a budget of {budget} B");
     assert!(d.bounds > 0 && d.grid > 0 && d.sig > 0, "nothing dropped");
-    let (w, h) = (&whole.history, &held.history);
-    assert_eq!(h.xy, w.xy[d.grid..]);
-    assert_eq!(h.s, w.s[d.grid..]);
-    assert_eq!(h.pose, w.pose[d.grid..]);
-    assert_eq!(h.curvature, w.curvature[d.grid..]);
-    assert_eq!(h.sig_value, w.sig_value[d.sig..]);
-    let shifted: Vec<f64> = w.sig_grid[d.sig..]
-        .iter()
-        .map(|g| g - d.grid as f64)
-        .collect();
-    assert_eq!(h.sig_grid, shifted);
-    let bounds: Vec<usize> = w.bounds[d.bounds..].iter().map(|b| b - d.sig).collect();
-    assert_eq!(h.bounds, bounds);
+    assert_eq!(tail_of(&held, &whole), d.bounds);
     assert_eq!(held.segments(), whole.segments());
     assert_eq!(held.length(), whole.length());
     // A window of held segments is the whole's window of the same segments.
@@ -430,21 +440,12 @@ fn a_history_joined_late_holds_the_whole_from_its_first_chunk() {
         for c in &cs[k..] {
             late.apply(c).expect("late");
         }
-        let d = late.dropped();
-        assert_eq!(d.grid, cs[k].kept[0].index as usize, "chunk {k}");
-        let (w, h) = (&whole.history, &late.history);
-        assert_eq!(h.xy, w.xy[d.grid..]);
-        assert_eq!(h.s, w.s[d.grid..]);
-        assert_eq!(h.pose, w.pose[d.grid..]);
-        assert_eq!(h.sig_value, w.sig_value[d.sig..]);
-        let shifted: Vec<f64> = w.sig_grid[d.sig..]
-            .iter()
-            .map(|g| g - d.grid as f64)
-            .collect();
-        assert_eq!(h.sig_grid, shifted);
-        let from = w.bounds.partition_point(|&b| b < d.sig);
-        let bounds: Vec<usize> = w.bounds[from..].iter().map(|b| b - d.sig).collect();
-        assert_eq!(h.bounds, bounds, "chunk {k}");
+        assert_eq!(
+            late.dropped().grid,
+            cs[k].kept[0].index as usize,
+            "chunk {k}"
+        );
+        let from = tail_of(&late, &whole);
         assert_eq!(late.segments(), whole.segments() - from);
         assert!(late.window_from(0).is_some());
     }
