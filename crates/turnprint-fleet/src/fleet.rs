@@ -302,7 +302,7 @@ impl Fleet {
             return Received::CatchUp;
         }
         let mut broken = None;
-        while let Some(c) = next.take() {
+        while let Some(c) = next {
             if let Err(why) = peer.history.apply(&c) {
                 broken = Some(why);
                 break;

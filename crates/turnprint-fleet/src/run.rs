@@ -7,7 +7,7 @@
 //! the summary holds the estimate of every robot heard from.
 
 use std::io::Write;
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -139,7 +139,6 @@ pub fn stream(
     )?);
     // Late joiner or not: whatever the others have published so far.
     transport.catch_up("*");
-    let published = Arc::new(AtomicU32::new(0));
     let stop = Arc::new(AtomicBool::new(false));
     let _stop_on_drop = StopOnDrop(stop.clone());
     let status = status_thread(transport.clone(), epoch, stop.clone());
@@ -166,7 +165,6 @@ pub fn stream(
         dk: config.pipeline.signature.dk,
         transport: transport.clone(),
         own: own_tx,
-        published: published.clone(),
     };
     let t0 = Instant::now();
     let mut cross = 0u64;
@@ -236,7 +234,7 @@ pub fn stream(
             json!({
                 "published_bytes": sent.published.load(Ordering::Relaxed),
                 "published": sent.messages.load(Ordering::Relaxed),
-                "chunks": published.load(Ordering::Relaxed),
+                "chunks": transport.chunks_published(),
                 "replied_bytes": sent.replied.load(Ordering::Relaxed),
                 "queries_answered": sent.queries.load(Ordering::Relaxed),
                 "history_bytes": transport.stored_bytes(),
@@ -257,7 +255,6 @@ struct Chunker {
     dk: f64,
     transport: Arc<Transport>,
     own: Sender<Chunk>,
-    published: Arc<AtomicU32>,
 }
 
 impl Chunker {
@@ -292,7 +289,6 @@ impl Chunker {
         let pending = std::mem::take(&mut self.pending);
         let chunk = self.encoder.chunk(&pending, poses, frame, last);
         self.transport.publish_chunk(chunk.encode())?;
-        self.published.fetch_add(1, Ordering::Relaxed);
         let _ = self.own.send(chunk);
         Ok(())
     }

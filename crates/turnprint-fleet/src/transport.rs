@@ -61,6 +61,12 @@ impl Store {
     fn published(&self) -> u32 {
         self.first + self.chunks.len() as u32
     }
+
+    /// The status payload, once the session is known.
+    fn status(&self) -> Option<Vec<u8>> {
+        self.epoch
+            .map(|e| encode_status(e, self.published(), self.first))
+    }
 }
 /// A payload received from another robot.
 #[derive(Debug)]
@@ -180,8 +186,10 @@ impl Transport {
                 let all: Vec<Vec<u8>> = served
                     .lock()
                     .map(|s| {
-                        let status = s.epoch.map(|e| encode_status(e, s.published(), s.first));
-                        status.into_iter().chain(s.chunks.iter().cloned()).collect()
+                        s.status()
+                            .into_iter()
+                            .chain(s.chunks.iter().cloned())
+                            .collect()
                     })
                     .unwrap_or_default();
                 sent_q.queries.fetch_add(1, Ordering::Relaxed);
@@ -218,11 +226,11 @@ impl Transport {
         let status = match self.store.lock() {
             Ok(mut s) => {
                 s.epoch = Some(epoch);
-                encode_status(epoch, s.published(), s.first)
+                s.status()
             }
-            Err(_) => return Err("the served history's lock was poisoned".into()),
+            Err(_) => None,
         };
-        self.publish(status)
+        self.publish(status.ok_or("the served history's lock was poisoned")?)
     }
 
     /// Publishes any payload as this robot (a test's garbage included).
@@ -263,6 +271,11 @@ impl Transport {
     /// the store's budget).
     pub fn stored_bytes(&self) -> usize {
         self.store.lock().map(|s| s.bytes).unwrap_or(0)
+    }
+
+    /// Chunks published so far (served or dropped from the store).
+    pub fn chunks_published(&self) -> u32 {
+        self.store.lock().map(|s| s.published()).unwrap_or(0)
     }
 
     /// Keeps at most `bytes` of published chunks to serve

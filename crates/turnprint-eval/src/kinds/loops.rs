@@ -182,11 +182,12 @@ pub fn run(s: &Session, input: Input, seed: u64, online: bool) -> Option<LoopRun
     claims.sort_by(|x, y| y.score.total_cmp(&x.score));
     let wide = claims.clone();
     claims.truncate(TOP_K);
+    // The naive loops are sorted and cut too: its first ten are its top ten.
     let naive_wide = naive(&s.truth, radius, WIDE_K).loops(&positions);
-    let naive = naive(&s.truth, radius, TOP_K).loops(&positions);
+    let naive = &naive_wide[..naive_wide.len().min(TOP_K)];
 
     let judge = |c: &[LoopClaim]| judge(c, &s.truth, &arc, &events, radius);
-    let (t, n) = (judge(&claims), judge(&naive));
+    let (t, n) = (judge(&claims), judge(naive));
     let covered_wide = [judge(&wide).0, judge(&naive_wide).0];
     let offset = |c: &LoopClaim| true_offset(c.query, c.matched, &s.truth) / radius;
     let online = online.then(|| run_online(&positions, judge, offset));
