@@ -63,6 +63,11 @@ impl Plane {
         }
     }
 
+    /// The plane's unit normal `n`.
+    pub fn normal(&self) -> Vector3<f64> {
+        self.world_R_plane.column(2).into_owned()
+    }
+
     /// Plane coordinates `l = world_R_plane^T (p - origin)`.
     pub fn local(&self, p: &Vector3<f64>) -> Vector3<f64> {
         self.world_R_plane.transpose() * (p - self.origin)

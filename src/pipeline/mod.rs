@@ -17,6 +17,7 @@ pub mod proximity;
 pub mod rank;
 pub mod refine;
 pub mod resolution;
+pub mod upright;
 pub mod verify;
 
 pub use config::Config;
@@ -425,6 +426,13 @@ fn to_hypothesis(
         .map(|&(t, q)| (pa.point3_at(t), pb.point3_at(q as f64)))
         .collect();
     let mut a_t_b = crate::align::refine_lift(&lifted, &points);
+    // Between two paths either may be seen from the other side of its
+    // plane: one held turned over loses score (within one map, loops are
+    // never mirrored).
+    let score = match later_is_a {
+        true => score,
+        false => score * upright::upright_factor(&points, &a_t_b, &pa.plane.normal()),
+    };
     let mut a_range = [pa.pose_of_grid(o.target[0]), pa.pose_of_grid(o.target[1])];
     let mut b_range = [
         pb.pose_of_grid(o.query[0] as f64),
