@@ -208,7 +208,7 @@ pub fn match_prepared_within(
         Job::Zncc(cand) => {
             let mirrored = cand.orientation.mirrored;
             verify::verify_best(pa, pb, &xy[mirrored as usize], cand, config, &|_, _| true)
-                .map(|(v, s)| to_hypothesis(pa, pb, &v, s, false))
+                .map(|(v, _)| to_hypothesis(pa, pb, &v, Some(&config.score)))
         }
         Job::Turns(p) => {
             let seed = [p.seed[0], p.seed[1].min(pb.track.len() - 1)];
@@ -222,7 +222,7 @@ pub fn match_prepared_within(
                 config,
                 &|_, _| true,
             )
-            .map(|v| to_hypothesis(pa, pb, &v, score(&v.evidence, &config.score), false))
+            .map(|v| to_hypothesis(pa, pb, &v, Some(&config.score)))
         }
     });
     rank::rank(
@@ -353,7 +353,7 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     let mut hypotheses = Vec::new();
     let extent = crate::geometry::extent(&pa.positions);
     for v in &verified {
-        let h = to_hypothesis(pa, pa, v, 0.0, true);
+        let h = to_hypothesis(pa, pa, v, None);
         let s = match &config.drift_prior {
             Some(prior) => {
                 let length = v.overlap.target_length.max(v.overlap.query_length);
@@ -381,6 +381,20 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     )
 }
 
+/// RMS distance between `p_a` and `a_T_b p_b` over the pairs (infinite for
+/// none: nothing measured).
+#[allow(non_snake_case)]
+fn rms_misfit(pairs: &[(Vector3<f64>, Vector3<f64>)], a_T_b: &crate::geometry::Similarity3) -> f64 {
+    if pairs.is_empty() {
+        return f64::INFINITY;
+    }
+    let sum: f64 = pairs
+        .iter()
+        .map(|(p_a, p_b)| (p_a - a_T_b.apply(p_b)).norm_squared())
+        .sum();
+    (sum / pairs.len() as f64).sqrt()
+}
+
 /// Median distance in the map between corresponding poses of a loop, in
 /// 3D: the smoothed track in the path's plane at the poses' heights above
 /// it. The plane drops the height, so measured in it alone two passes over
@@ -404,15 +418,19 @@ fn median_offset(pa: &PreparedPath, h: &Hypothesis) -> f64 {
     d[d.len() / 2]
 }
 
-/// A verified overlap as a hypothesis in 3D. For loops, the later part
-/// becomes A (the query) and the similarity maps the earlier part onto it.
+/// A verified overlap as a hypothesis in 3D. Between two paths (`merge`:
+/// scored with `merge`), its evidence is measured on the 3D fit where that
+/// fits closer than the 2D one, and a match held turned over loses score
+/// ([`upright`]). For loops (`merge` `None`, score left to the caller), the
+/// later part becomes A (the query) and the similarity maps the earlier part
+/// onto it.
 fn to_hypothesis(
     pa: &PreparedPath,
     pb: &PreparedPath,
     v: &Verified,
-    score: f64,
-    later_is_a: bool,
+    merge: Option<&crate::score::ScoreConfig>,
 ) -> Hypothesis {
+    let later_is_a = merge.is_none();
     let o = &v.overlap;
     let mirrored = v.candidate.orientation.mirrored;
     let lifted = pa.plane.lift(&pb.plane(mirrored), &o.a_T_b);
@@ -426,12 +444,22 @@ fn to_hypothesis(
         .map(|&(t, q)| (pa.point3_at(t), pb.point3_at(q as f64)))
         .collect();
     let mut a_t_b = crate::align::refine_lift(&lifted, &points);
-    // Between two paths either may be seen from the other side of its
-    // plane: one held turned over loses score (within one map, loops are
-    // never mirrored).
-    let score = match later_is_a {
-        true => score,
-        false => score * upright::upright_factor(&points, &a_t_b, &pa.plane.normal()),
+    let (score, rmse) = match merge {
+        None => (0.0, o.rmse),
+        Some(config) => {
+            // Two windows of one hilly road fit planes tilted apart, and each
+            // sees the road foreshortened its own way: the 2D misfit then
+            // measures the tilt, not the match (KITTI 09, one road in two
+            // windows: 0.1-0.3 m in 2D by where the windows start).
+            let rmse = o.rmse.min(rms_misfit(&points, &a_t_b));
+            let evidence = crate::score::Evidence {
+                relative_rmse: v.evidence.relative_rmse * rmse / o.rmse.max(f64::MIN_POSITIVE),
+                ..v.evidence
+            };
+            // Either path may be seen from the other side of its plane.
+            let upright = upright::upright_factor(&points, &a_t_b, &pa.plane.normal());
+            (score(&evidence, config) * upright, rmse)
+        }
     };
     let mut a_range = [pa.pose_of_grid(o.target[0]), pa.pose_of_grid(o.target[1])];
     let mut b_range = [
@@ -462,7 +490,7 @@ fn to_hypothesis(
         scale: a_t_b.scale,
         rotation: a_t_b.rotation,
         translation: a_t_b.translation,
-        rmse: o.rmse,
+        rmse,
         turning: v.evidence.turning,
         length: o.target_length.max(o.query_length),
         length_ratio: v.evidence.length_ratio,
