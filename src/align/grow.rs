@@ -33,10 +33,6 @@ pub struct GrowConfig {
     /// this fraction of the tolerance (0: only when the range and residual
     /// stop changing): the next round would find the same points.
     pub settle: f64,
-    /// Weight of each pair's distance along the target against its distance
-    /// across it in the refit ([`refit_to_lines`]; 1 is a point-to-point
-    /// fit).
-    pub along_weight: f64,
 }
 
 impl Default for GrowConfig {
@@ -49,13 +45,6 @@ impl Default for GrowConfig {
             points_per_round: 0,
             max_misses: 3,
             settle: 0.0,
-            // Across the road, with a thirtieth of the pull along it: on
-            // `evaluate_kinds` merges (seeds 1 and 2) rank-1 +2 and +1, top-5
-            // +3 and +1, AUC -0.006 and -0.003 against point to point; chains
-            // of windows (`evaluate_many`, seed 1) 43.4 -> 47.4 % placed
-            // right. At 0.1 the fits stop short of the lines' (seed 1: rank-1
-            // -1, AUC -0.009).
-            along_weight: 0.03,
         }
     }
 }
@@ -228,19 +217,7 @@ pub fn grow_and_refit(
                 }
             })
             .collect();
-        let refit = if config.along_weight >= 1.0 {
-            Similarity2::fit(&pairs, Some(&weights))
-        } else {
-            let tangents: Vec<Vector2<f64>> = matched
-                .iter()
-                .map(|m| {
-                    let (s, c) = Track::interp(&target.heading, m.vertex).sin_cos();
-                    Vector2::new(c, s)
-                })
-                .collect();
-            refit_to_lines(&sim, &pairs, &tangents, &weights, config.along_weight)
-        };
-        let Some(refit) = refit else {
+        let Some(refit) = Similarity2::fit(&pairs, Some(&weights)) else {
             return result;
         };
         // Refitting refines a seed by a few percent; a scale running away
@@ -285,72 +262,6 @@ pub fn grow_and_refit(
         }
     }
     result
-}
-
-/// The similarity `a_T_b` that lays the query points `p_b` of `pairs`
-/// `(p_a, p_b)` onto the target's tangent lines through `p_a` (unit
-/// `tangents`), each pair weighted by `weights`, its distance along the line
-/// by `along` more: `sim` composed with the update `u -> M u + τ`, `M = [[p,
-/// -q], [q, p]]`, that minimises `Σ w (|n·r|² + along |t·r|²)`, `r = M u + τ -
-/// p_a`, `u = sim(p_b)`. Linear in `(p, q, τ)`, so one solve.
-///
-/// Point to point (`along` 1), each pair drags the fit along the road
-/// towards where its nearest target point was, and the rounds creep
-/// (ground truth against its own reversal: RMS 0.75, 0.54, 0.37, 0.18, 0.09
-/// m after rounds 1, 3, 4, 6, 8 over 450 m). Across the lines alone, a
-/// curve fixes the fit in one round and the points slide along it freely;
-/// the small pull along keeps a straight, which fixes nothing along
-/// itself, where its points put it.
-fn refit_to_lines(
-    sim: &Similarity2,
-    pairs: &[(Vector2<f64>, Vector2<f64>)],
-    tangents: &[Vector2<f64>],
-    weights: &[f64],
-    along: f64,
-) -> Option<Similarity2> {
-    let apply = sim.applier();
-    let u: Vec<Vector2<f64>> = pairs.iter().map(|(_, b)| apply(b)).collect();
-    let total: f64 = weights.iter().sum();
-    if !(total > 0.0) {
-        return None;
-    }
-    let c = u
-        .iter()
-        .zip(weights)
-        .fold(Vector2::zeros(), |acc, (x, w)| acc + x * *w)
-        / total;
-    let mut ata = nalgebra::Matrix4::<f64>::zeros();
-    let mut atb = nalgebra::Vector4::<f64>::zeros();
-    for (((p_a, _), x), (t, w)) in pairs.iter().zip(&u).zip(tangents.iter().zip(weights)) {
-        let v = x - c;
-        let jv = Vector2::new(-v.y, v.x);
-        let n = Vector2::new(-t.y, t.x);
-        let target = p_a - c;
-        for (dir, wd) in [(n, *w), (*t, *w * along)] {
-            let row = nalgebra::Vector4::new(dir.dot(&v), dir.dot(&jv), dir.x, dir.y);
-            ata += wd * row * row.transpose();
-            atb += wd * row * dir.dot(&target);
-        }
-    }
-    let x = ata.cholesky()?.solve(&atb);
-    let (p, q) = (x[0], x[1]);
-    let scale = p.hypot(q);
-    if !(scale > 0.0 && scale.is_finite()) {
-        return None;
-    }
-    // u' = M (u - c) + c + τ = M u + (c + τ - M c).
-    let m_c = Vector2::new(p * c.x - q * c.y, q * c.x + p * c.y);
-    let update = Similarity2 {
-        scale,
-        angle: q.atan2(p),
-        translation: c + Vector2::new(x[2], x[3]) - m_c,
-    };
-    let t = sim.translation;
-    Some(Similarity2 {
-        scale: update.scale * sim.scale,
-        angle: update.angle + sim.angle,
-        translation: update.apply(&t),
-    })
 }
 
 /// The segments (segment `i` joins samples `i` and `i + 1`) holding a point
@@ -495,56 +406,6 @@ mod tests {
             (overlap.a_T_b.scale - 1.0).abs() < 1e-3 && overlap.rmse < 0.05,
             "scale {}, rmse {}",
             overlap.a_T_b.scale,
-            overlap.rmse
-        );
-    }
-
-    /// A path grown on itself driven the other way, from a seed a few
-    /// decimetres off: refitted point to point, each pair pulled the fit towards
-    /// where its nearest point had been, and after the 8 rounds the reversed
-    /// overlap still missed by 0.09 m RMS over 450 m (KITTI 09's ground
-    /// truth), scoring below a rival in a chain of windows.
-    #[test]
-    fn a_path_grown_on_its_own_reversal_fits_within_the_rounds() {
-        let road: Vec<Vector2<f64>> = (0..900)
-            .map(|i| {
-                let t = i as f64 * 0.5;
-                Vector2::new(t + 8.0 * (t / 23.0).cos(), 30.0 * (t / 40.0).sin())
-            })
-            .collect();
-        let target = Track::build(&road).expect("a moving path");
-        let back: Vec<Vector2<f64>> = road.iter().rev().copied().collect();
-        let query = Track::build(&back).expect("a moving path");
-        let n = query.xy.len();
-        let start = Similarity2 {
-            scale: 1.003,
-            angle: 0.003,
-            translation: Vector2::new(0.3, -0.4),
-        };
-        let seed = [n / 2 - 40, n / 2 + 40];
-        let overlap = grow(&target, &query, seed, start, &GrowConfig::default()).expect("grows");
-        let length = overlap.target_length;
-        assert!(overlap.reversed);
-        assert!(
-            overlap.rmse < 1e-4 * length,
-            "rmse {} over {length}",
-            overlap.rmse
-        );
-        assert!(
-            (overlap.a_T_b.scale - 1.0).abs() < 1e-4,
-            "{:?}",
-            overlap.a_T_b
-        );
-        // Point to point, the same growth creeps.
-        let creeping = GrowConfig {
-            along_weight: 1.0,
-            ..GrowConfig::default()
-        };
-        let old = grow(&target, &query, seed, start, &creeping).expect("grows");
-        assert!(
-            old.rmse > 10.0 * overlap.rmse.max(1e-6),
-            "{} {}",
-            old.rmse,
             overlap.rmse
         );
     }

@@ -107,12 +107,6 @@ impl Config {
         // points within 5 % (not 3 %) on the first round. On the strong-drift
         // loops of KITTI (5 seeds): rank-1 +5..20 points, events +5..9.
         c.grow.tolerance = 0.05;
-        // Point to point: a revisit of a drifting map is bent, and a fit
-        // free to slide along the road runs off along it to look-alikes
-        // (`evaluate_kinds` loops, seed 1, across the road with a thirtieth
-        // along: events of real estimates 89.4 -> 71.3 %, truths 62.1 ->
-        // 59.9 %).
-        c.grow.along_weight = 1.0;
         // Within one map the extra best-correlating candidates are
         // look-alikes that beat drifted revisits (strong-drift loops, seeds
         // 1 and 2: rank-1 60 -> 55 % and 70 -> 60 %).
