@@ -44,10 +44,11 @@ pub fn upright_factor(
         upright += (a - b) * (a - b);
         turned += (a + b) * (a + b);
     }
-    if !(upright > turned) || !upright.is_finite() || !turned.is_finite() {
-        return 1.0;
+    // Not finite (bad input) or upright at least as close: all of it.
+    match upright.is_finite() && turned.is_finite() && upright > turned {
+        true => (turned / upright).sqrt(),
+        false => 1.0,
     }
-    (turned / upright).sqrt()
 }
 
 #[cfg(test)]
@@ -65,6 +66,7 @@ mod tests {
             .collect()
     }
 
+    #[allow(non_snake_case)]
     fn pairs_under(b_T_a: &Similarity3, pts: &[Vector3<f64>]) -> Vec<(Vector3<f64>, Vector3<f64>)> {
         pts.iter().map(|p| (*p, b_T_a.apply(p))).collect()
     }
