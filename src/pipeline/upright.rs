@@ -71,33 +71,30 @@ mod tests {
         pts.iter().map(|p| (*p, b_T_a.apply(p))).collect()
     }
 
-    #[allow(non_snake_case)]
-    fn sim(axis: Vector3<f64>, angle: f64, scale: f64) -> Similarity3 {
-        Similarity3 {
+    /// The climbing path as A and as B under an oblique similarity of
+    /// `scale`: the pairs and the right `a_T_b`.
+    fn climbing_under(scale: f64) -> (Vec<(Vector3<f64>, Vector3<f64>)>, Similarity3) {
+        let b_t_a = Similarity3 {
             scale,
-            rotation: UnitQuaternion::from_scaled_axis(axis * angle)
-                .to_rotation_matrix()
-                .into_inner(),
+            rotation: UnitQuaternion::from_scaled_axis(
+                Vector3::new(0.3, -0.8, 0.5).normalize() * 2.1,
+            )
+            .to_rotation_matrix()
+            .into_inner(),
             translation: Vector3::new(5.0, -2.0, 1.0),
-        }
+        };
+        (pairs_under(&b_t_a, &climbing()), b_t_a.inverse())
     }
 
     #[test]
-    #[allow(non_snake_case)]
     fn a_right_match_keeps_its_whole_score_in_any_frame() {
-        let pts = climbing();
-        let b_T_a = sim(Vector3::new(0.3, -0.8, 0.5).normalize(), 2.1, 37.0);
-        let pairs = pairs_under(&b_T_a, &pts);
-        let f = upright_factor(&pairs, &b_T_a.inverse(), &Vector3::z());
-        assert_eq!(f, 1.0);
+        let (pairs, a_t_b) = climbing_under(37.0);
+        assert_eq!(upright_factor(&pairs, &a_t_b, &Vector3::z()), 1.0);
     }
 
     #[test]
-    #[allow(non_snake_case)]
     fn a_match_turned_over_loses_score() {
-        let pts = climbing();
-        let b_T_a = sim(Vector3::new(0.3, -0.8, 0.5).normalize(), 2.1, 0.02);
-        let pairs = pairs_under(&b_T_a, &pts);
+        let (pairs, a_t_b) = climbing_under(0.02);
         // Half a turn about the x axis after the right map: heights negated.
         let flip = Similarity3 {
             scale: 1.0,
@@ -105,8 +102,7 @@ mod tests {
                 .into_inner(),
             translation: Vector3::zeros(),
         };
-        let wrong = flip.compose(&b_T_a.inverse());
-        let f = upright_factor(&pairs, &wrong, &Vector3::z());
+        let f = upright_factor(&pairs, &flip.compose(&a_t_b), &Vector3::z());
         assert!(f < 0.05, "{f}");
     }
 
