@@ -66,14 +66,17 @@ mod tests {
             .collect()
     }
 
+    /// Corresponding points `(p_a, p_b)`.
+    type Pairs = Vec<(Vector3<f64>, Vector3<f64>)>;
+
     #[allow(non_snake_case)]
-    fn pairs_under(b_T_a: &Similarity3, pts: &[Vector3<f64>]) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    fn pairs_under(b_T_a: &Similarity3, pts: &[Vector3<f64>]) -> Pairs {
         pts.iter().map(|p| (*p, b_T_a.apply(p))).collect()
     }
 
     /// The climbing path as A and as B under an oblique similarity of
     /// `scale`: the pairs and the right `a_T_b`.
-    fn climbing_under(scale: f64) -> (Vec<(Vector3<f64>, Vector3<f64>)>, Similarity3) {
+    fn climbing_under(scale: f64) -> (Pairs, Similarity3) {
         let b_t_a = Similarity3 {
             scale,
             rotation: UnitQuaternion::from_scaled_axis(
