@@ -49,15 +49,34 @@ pub fn refine_lift(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) 
     }
 }
 
+/// Distance between `p_a` and `a_T_b p_b` of each pair.
+#[allow(non_snake_case)]
+fn residuals<'a>(
+    a_T_b: &'a Similarity3,
+    pairs: &'a [(Vector3<f64>, Vector3<f64>)],
+) -> impl Iterator<Item = f64> + 'a {
+    pairs
+        .iter()
+        .map(|(p_a, p_b)| (p_a - a_T_b.apply(p_b)).norm())
+}
+
 /// Median distance between `p_a` and `a_T_b p_b` over the pairs.
 #[allow(non_snake_case)]
 fn median_residual(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) -> f64 {
-    let mut d: Vec<f64> = pairs
-        .iter()
-        .map(|(p_a, p_b)| (p_a - a_T_b.apply(p_b)).norm())
-        .collect();
+    let mut d: Vec<f64> = residuals(a_T_b, pairs).collect();
     d.sort_by(f64::total_cmp);
     d.get(d.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// RMS distance between `p_a` and `a_T_b p_b` over the pairs (infinite for
+/// none: nothing measured).
+#[allow(non_snake_case)]
+pub fn rms_residual(a_T_b: &Similarity3, pairs: &[(Vector3<f64>, Vector3<f64>)]) -> f64 {
+    if pairs.is_empty() {
+        return f64::INFINITY;
+    }
+    let sum: f64 = residuals(a_T_b, pairs).map(|d| d * d).sum();
+    (sum / pairs.len() as f64).sqrt()
 }
 
 /// Whether the points spread in two directions, not along one line.

@@ -8,7 +8,7 @@ pub mod polish;
 pub mod ransac;
 
 pub use grow::{grow_and_refit, Overlap};
-pub use lift::refine_lift;
+pub use lift::{refine_lift, rms_residual};
 pub use polish::{polish, search_window, Fit, RawPath};
 pub use ransac::ransac_similarity;
 

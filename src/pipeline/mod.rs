@@ -381,20 +381,6 @@ pub fn find_loops_prepared(pa: &PreparedPath, config: &Config) -> Vec<Hypothesis
     )
 }
 
-/// RMS distance between `p_a` and `a_T_b p_b` over the pairs (infinite for
-/// none: nothing measured).
-#[allow(non_snake_case)]
-fn rms_misfit(pairs: &[(Vector3<f64>, Vector3<f64>)], a_T_b: &crate::geometry::Similarity3) -> f64 {
-    if pairs.is_empty() {
-        return f64::INFINITY;
-    }
-    let sum: f64 = pairs
-        .iter()
-        .map(|(p_a, p_b)| (p_a - a_T_b.apply(p_b)).norm_squared())
-        .sum();
-    (sum / pairs.len() as f64).sqrt()
-}
-
 /// Median distance in the map between corresponding poses of a loop, in
 /// 3D: the smoothed track in the path's plane at the poses' heights above
 /// it. The plane drops the height, so measured in it alone two passes over
@@ -444,6 +430,7 @@ fn to_hypothesis(
         .map(|&(t, q)| (pa.point3_at(t), pb.point3_at(q as f64)))
         .collect();
     let mut a_t_b = crate::align::refine_lift(&lifted, &points);
+    let length = o.target_length.max(o.query_length);
     let (score, rmse) = match merge {
         None => (0.0, o.rmse),
         Some(config) => {
@@ -451,9 +438,9 @@ fn to_hypothesis(
             // sees the road foreshortened its own way: the 2D misfit then
             // measures the tilt, not the match (KITTI 09, one road in two
             // windows: 0.1-0.3 m in 2D by where the windows start).
-            let rmse = o.rmse.min(rms_misfit(&points, &a_t_b));
+            let rmse = o.rmse.min(crate::align::rms_residual(&a_t_b, &points));
             let evidence = crate::score::Evidence {
-                relative_rmse: v.evidence.relative_rmse * rmse / o.rmse.max(f64::MIN_POSITIVE),
+                relative_rmse: rmse / length.max(f64::MIN_POSITIVE),
                 ..v.evidence
             };
             // Either path may be seen from the other side of its plane.
@@ -492,7 +479,7 @@ fn to_hypothesis(
         translation: a_t_b.translation,
         rmse,
         turning: v.evidence.turning,
-        length: o.target_length.max(o.query_length),
+        length,
         length_ratio: v.evidence.length_ratio,
         correspondences,
     }
