@@ -77,6 +77,9 @@ pub struct LoopRun {
     pub input: Input,
     /// Revisit events of the session's truth.
     pub events: usize,
+    /// Each event's revisiting poses and the earlier poses they match, as
+    /// `[first, last, match_first, match_last]` (to see which are missed).
+    pub event_ranges: Vec<[usize; 4]>,
     /// Events a correct top-10 loop touches: turnprint, naive.
     pub covered: [usize; 2],
     /// Events a correct loop of the top [`WIDE_K`] touches: turnprint,
@@ -196,6 +199,10 @@ pub fn run(s: &Session, input: Input, seed: u64, online: bool) -> Option<LoopRun
         session: s.name.clone(),
         input,
         events: events.len(),
+        event_ranges: events
+            .iter()
+            .map(|e| [e.first, e.last, e.match_first, e.match_last])
+            .collect(),
         covered: [t.0, n.0],
         covered_wide,
         rank1_correct: [t.3.first() == Some(&true), n.3.first() == Some(&true)],
