@@ -4,25 +4,19 @@
 
 use crate::Hypothesis;
 
+/// Poses two inclusive ranges share.
+fn shared(a: [usize; 2], b: [usize; 2]) -> f64 {
+    (a[1].min(b[1]) + 1).saturating_sub(a[0].max(b[0])) as f64
+}
+
 /// Fraction of the shorter range covered by the intersection.
 pub fn range_overlap(a: [usize; 2], b: [usize; 2]) -> f64 {
-    let lo = a[0].max(b[0]);
-    let hi = a[1].min(b[1]);
-    if hi < lo {
-        return 0.0;
-    }
-    let inter = (hi - lo + 1) as f64;
-    let shorter = ((a[1] - a[0]).min(b[1] - b[0]) + 1) as f64;
-    inter / shorter
+    shared(a, b) / ((a[1] - a[0]).min(b[1] - b[0]) + 1) as f64
 }
 
 /// The share of range `inner` inside range `outer`.
 fn share_within(inner: [usize; 2], outer: [usize; 2]) -> f64 {
-    let (lo, hi) = (inner[0].max(outer[0]), inner[1].min(outer[1]));
-    if hi < lo {
-        return 0.0;
-    }
-    (hi - lo + 1) as f64 / (inner[1] - inner[0] + 1) as f64
+    shared(inner, outer) / (inner[1] - inner[0] + 1) as f64
 }
 
 /// True when `k` and `h` pair the same places: at the middle of their
