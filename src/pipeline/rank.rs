@@ -24,9 +24,9 @@ fn share_within(inner: [usize; 2], outer: [usize; 2]) -> f64 {
 /// each other. Farther apart they pair it with two different earlier passes
 /// (a path lapping a room or a circuit). Half, because two fits of one
 /// stretch pair its middle near the middle; at the whole range the laps of
-/// a small room fall within it (`evaluate_kinds` seed 1, random walk, before
-/// the similarity check below was added: 48.9
-/// against 41.8 % of events). Without correspondences, one place.
+/// a small room fall within it (`evaluate_kinds` seed 1, random walk, without
+/// the similarity check in [`rank`]: 48.9 against 41.8 % of events). Without
+/// correspondences, one place.
 fn same_pairs(k: &Hypothesis, h: &Hypothesis) -> bool {
     let mid = (k.a_range[0].max(h.a_range[0]) + k.a_range[1].min(h.a_range[1])) / 2;
     let b_at = |x: &Hypothesis| {
