@@ -16,7 +16,6 @@
 use std::collections::{HashMap, HashSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
@@ -25,10 +24,10 @@ use serde_json::{json, Value};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint::{Error, Result, Trajectory};
-use turnprint_ipc::client::{Candidate, ClientConfig, Outcome, VerifierClient};
-use turnprint_ipc::payload::CameraParams;
+use turnprint_ipc::client::{Candidate, Outcome, VerifierClient};
 use turnprint_verifier::camera::CameraModel;
-use turnprint_verifier::render::{camera_poses, on_road, render, World, WorldParams};
+
+use crate::keyframes::{start_verifier, Renderer};
 
 /// Settings of a verified replay.
 #[derive(Debug, Clone)]
@@ -103,7 +102,8 @@ impl CameraKind {
         }
     }
 
-    fn model(self, w: u32, h: u32) -> CameraModel {
+    /// The model of this camera for images of `w` x `h` pixels.
+    pub(crate) fn model(self, w: u32, h: u32) -> CameraModel {
         match self {
             CameraKind::Pinhole => CameraModel::standard_pinhole(w, h, 90f64.to_radians()),
             CameraKind::Fisheye => CameraModel::standard_fisheye(w, h, 190f64.to_radians()),
@@ -143,16 +143,6 @@ struct Open {
     hypothesis: turnprint::Hypothesis,
 }
 
-/// The sidecar process, ended on drop.
-struct Sidecar(Child);
-
-impl Drop for Sidecar {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 /// Replays `path` through the detector with the verifier sidecar, writing
 /// JSON Lines to `out`.
 pub fn stream_verified(
@@ -172,46 +162,14 @@ pub fn stream_verified(
     if input.len() < turnprint::pipeline::prepare::MIN_POSES {
         return Err(Error::input(&name, "too few poses to stream"));
     }
-    if options.cameras.is_empty() {
-        return Err(Error::input(&name, "--cameras names no camera"));
-    }
-    let to_truth = pair_with_truth(&input, &truth);
-    let camera_poses = camera_poses(&truth);
-    let world = World::from_positions(&truth.positions(), WorldParams::default())
-        .map_err(|e| Error::input(&name, format!("test world: {e}")))?;
+    let renderer =
+        Renderer::new(&input, &truth, None, options).map_err(|e| Error::input(&name, e))?;
+    let to_truth = renderer.to_truth().to_vec();
     let io_err = |e: std::io::Error| Error::Io {
         path: "<stdout>".into(),
         source: e,
     };
-
-    // The sidecar, under a prefix of its own.
-    let prefix = format!(
-        "stream-{}-{}",
-        std::process::id(),
-        started.elapsed().as_nanos() ^ Instant::now().elapsed().as_nanos()
-    );
-    let exe = options.verifier.clone().unwrap_or_else(verifier_beside_me);
-    let _sidecar = Command::new(&exe)
-        .args(["--prefix", &prefix, "--report-secs", "0"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .map(Sidecar)
-        .map_err(|e| {
-            Error::input(
-                exe.display().to_string(),
-                format!("cannot start the verifier: {e}"),
-            )
-        })?;
-    iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
-    let mut client = VerifierClient::new(ClientConfig {
-        timeout: options.timeout,
-        liveness_timeout: Duration::from_secs(2),
-        max_image_bytes: (options.width * options.height) as usize,
-        ..ClientConfig::new(prefix.clone())
-    })
-    .map_err(|e| Error::input("iceoryx2", e.to_string()))?;
+    let (_sidecar, mut client, prefix) = start_verifier(options)?;
     let ready = client.wait_for_verifier(Duration::from_secs(20));
     writeln!(
         out,
@@ -233,10 +191,6 @@ pub fn stream_verified(
     let mut published: HashSet<u64> = HashSet::new();
     let mut open: HashMap<u64, Open> = HashMap::new();
     let mut best: Option<turnprint::Hypothesis> = None;
-    let n = input.len();
-    let camera_of = |pose: usize| {
-        options.cameras[(pose * options.cameras.len() / n).min(options.cameras.len() - 1)]
-    };
 
     let mut handle = |e: CandidateEvent,
                       client: &mut VerifierClient,
@@ -253,42 +207,19 @@ pub fn stream_verified(
             .get(h.correspondences.len() / 2)
             .copied()
             .unwrap_or((h.a_range[0], h.b_range[0]));
-        let snap = |p: usize| {
-            ((p + options.keyframe_every / 2) / options.keyframe_every * options.keyframe_every)
-                .min(n - 1)
-        };
-        let (qk, mk) = (snap(q), snap(m));
+        let (qk, mk) = (renderer.snap(q), renderer.snap(m));
         for k in [qk, mk] {
             if published.insert(k as u64) {
-                let kind = camera_of(k);
-                let model = kind.model(options.width, options.height);
-                let (code, params) = model.to_params();
-                let camera = CameraParams {
-                    kind: code,
-                    width: options.width,
-                    height: options.height,
-                    _pad: 0,
-                    params,
-                };
-                let pose = to_truth[k].map(|t| on_road(&camera_poses[t]));
-                let image = match pose {
-                    Some(p) => render(&world, &model, p, options.width, options.height),
-                    None => vec![0u8; (options.width * options.height) as usize],
-                };
+                let (camera, image) = renderer.render(k);
                 if client
-                    .publish_keyframe(
-                        k as u64,
-                        input.poses[k].t.unwrap_or(k as f64),
-                        &camera,
-                        &image,
-                    )
+                    .publish_keyframe(k as u64, renderer.time(k), &camera, &image)
                     .is_ok()
                 {
                     summary.keyframes += 1;
                 }
             }
         }
-        let pairing = pairing_name(camera_of(qk), camera_of(mk));
+        let pairing = pairing_name(renderer.camera_of(qk), renderer.camera_of(mk));
         let truly = truly_revisits(h.a_range, h.b_range, &to_truth, &truth);
         let id = client.submit(Candidate {
             query_keyframe: qk as u64,
@@ -325,7 +256,7 @@ pub fn stream_verified(
             t: pose.t,
             position: pose.position,
             orientation: pose.orientation,
-            keyframe: (i % options.keyframe_every == 0).then_some(i as u64),
+            keyframe: renderer.is_keyframe(i).then_some(i as u64),
         });
         for e in detector.poll() {
             handle(e, &mut client, out, &mut summary, &mut open)?;
@@ -482,29 +413,6 @@ fn pairing_name(a: CameraKind, b: CameraKind) -> String {
     format!("{}-{}", x.name(), y.name())
 }
 
-/// The truth index of each input pose: by timestamp when both have them
-/// (nearest within 50 ms), otherwise by order.
-fn pair_with_truth(input: &Trajectory, truth: &Trajectory) -> Vec<Option<usize>> {
-    let times: Option<Vec<f64>> = truth.poses.iter().map(|p| p.t).collect();
-    match times {
-        Some(tt) if input.poses.iter().all(|p| p.t.is_some()) && !tt.is_empty() => input
-            .poses
-            .iter()
-            .map(|p| {
-                let t = p.t.unwrap_or_default();
-                let k = tt.partition_point(|&x| x < t);
-                [k.saturating_sub(1), k.min(tt.len() - 1)]
-                    .into_iter()
-                    .min_by(|&a, &b| (tt[a] - t).abs().total_cmp(&(tt[b] - t).abs()))
-                    .filter(|&j| (tt[j] - t).abs() < 0.05)
-            })
-            .collect(),
-        _ => (0..input.len())
-            .map(|i| (i < truth.len()).then_some(i))
-            .collect(),
-    }
-}
-
 /// Whether a loop's query part truly revisits its match part: median
 /// distance from query poses to the nearest match pose within 10 m, in the
 /// truth's metres. `None` when the truth is the input itself is unknown.
@@ -537,23 +445,6 @@ fn truly_revisits(
     }
     d.sort_by(f64::total_cmp);
     Some(d[d.len() / 2] <= 10.0)
-}
-
-/// `turnprint-verifier` in the directory of the running executable (or, for
-/// tests and examples, its parent: `target/release/deps/..`).
-fn verifier_beside_me() -> PathBuf {
-    let me = std::env::current_exe().unwrap_or_default();
-    let dir = me.parent().map(Path::to_path_buf).unwrap_or_default();
-    for d in [
-        dir.clone(),
-        dir.parent().map(Path::to_path_buf).unwrap_or_default(),
-    ] {
-        let candidate = d.join("turnprint-verifier");
-        if candidate.exists() {
-            return candidate;
-        }
-    }
-    dir.join("turnprint-verifier")
 }
 
 /// The true path with the longest confirmed loop highlighted: its query

@@ -18,6 +18,7 @@
 //!   n_kept x { u32 index, f32 x, f32 y, f64 s, f32 curvature, f32 pose }
 //! u32 sig0  u32 n_sig   n_sig x { f32 value, f64 grid }
 //! u32 n_bounds          n_bounds x u32
+//! kind 2, a keyframe, served on request only: see [`crate::keyframe`]
 //! ```
 //!
 //! The track is decimated (one sample in [`DECIMATION`], and each chunk's
@@ -33,7 +34,7 @@ use turnprint::geometry::Plane;
 pub const VERSION: u16 = 2;
 
 /// First bytes of every payload.
-const MAGIC: &[u8; 4] = b"TPFL";
+pub(crate) const MAGIC: &[u8; 4] = b"TPFL";
 
 /// One track sample in this many is sent. The track is a smoothing spline
 /// sampled at about half the typical step, with a bandwidth of several
@@ -146,7 +147,7 @@ pub fn encode_status(epoch: u64, chunks: u32, first: u32) -> Vec<u8> {
 
 /// Reads the magic and the version every payload starts with: a newer
 /// version is refused as such, anything else unknown as garbage.
-fn header(r: &mut Reader) -> Result<(), Refusal> {
+pub(crate) fn header(r: &mut Reader) -> Result<(), Refusal> {
     if r.take(4)? != MAGIC {
         return Err(garbage("no turnprint fleet magic"));
     }
@@ -166,6 +167,8 @@ pub fn decode(bytes: &[u8]) -> Result<Message, Refusal> {
     header(&mut r)?;
     match r.u8()? {
         0 => Chunk::decode(bytes).map(|c| Message::Chunk(Box::new(c))),
+        // Keyframes are only served on request (`crate::keyframe`).
+        2 => Err(garbage("a keyframe is no data payload")),
         1 => {
             if r.u8()? != 0 {
                 return Err(garbage("unknown flags"));
@@ -343,50 +346,50 @@ impl Chunk {
     }
 }
 
-fn garbage(why: &str) -> Refusal {
+pub(crate) fn garbage(why: &str) -> Refusal {
     Refusal::Garbage(why.to_string())
 }
 
 /// Reads little-endian values, never past the end.
-struct Reader<'a> {
-    b: &'a [u8],
-    at: usize,
+pub(crate) struct Reader<'a> {
+    pub(crate) b: &'a [u8],
+    pub(crate) at: usize,
 }
 
 impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], Refusal> {
+    pub(crate) fn take(&mut self, n: usize) -> Result<&'a [u8], Refusal> {
         let end = self.at.checked_add(n).filter(|&e| e <= self.b.len());
         let end = end.ok_or_else(|| garbage("cut short"))?;
         let s = &self.b[self.at..end];
         self.at = end;
         Ok(s)
     }
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], Refusal> {
+    pub(crate) fn array<const N: usize>(&mut self) -> Result<[u8; N], Refusal> {
         let mut a = [0; N];
         a.copy_from_slice(self.take(N)?);
         Ok(a)
     }
-    fn u8(&mut self) -> Result<u8, Refusal> {
+    pub(crate) fn u8(&mut self) -> Result<u8, Refusal> {
         Ok(self.take(1)?[0])
     }
-    fn u16(&mut self) -> Result<u16, Refusal> {
+    pub(crate) fn u16(&mut self) -> Result<u16, Refusal> {
         Ok(u16::from_le_bytes(self.array()?))
     }
-    fn u32(&mut self) -> Result<u32, Refusal> {
+    pub(crate) fn u32(&mut self) -> Result<u32, Refusal> {
         Ok(u32::from_le_bytes(self.array()?))
     }
-    fn u64(&mut self) -> Result<u64, Refusal> {
+    pub(crate) fn u64(&mut self) -> Result<u64, Refusal> {
         Ok(u64::from_le_bytes(self.array()?))
     }
-    fn f32(&mut self) -> Result<f32, Refusal> {
+    pub(crate) fn f32(&mut self) -> Result<f32, Refusal> {
         Ok(f32::from_le_bytes(self.array()?))
     }
-    fn f64(&mut self) -> Result<f64, Refusal> {
+    pub(crate) fn f64(&mut self) -> Result<f64, Refusal> {
         Ok(f64::from_le_bytes(self.array()?))
     }
     /// A count of items of `size` bytes each, which must fit in what is
     /// left (a forged count never allocates).
-    fn count(&mut self, size: usize) -> Result<usize, Refusal> {
+    pub(crate) fn count(&mut self, size: usize) -> Result<usize, Refusal> {
         let n = self.u32()? as usize;
         if n.saturating_mul(size) > self.b.len() - self.at {
             return Err(garbage("a count beyond the payload"));

@@ -4,7 +4,9 @@
 //! finalised samples is published as a chunk; a matching thread takes in
 //! the other robots' chunks, matches new segments on either side and
 //! writes the cross-robot candidates; after the path and `linger` seconds,
-//! the summary holds the estimate of every robot heard from.
+//! the summary holds the estimate of every robot heard from. With a
+//! [`Verification`], each cross-robot candidate is verified on the images of
+//! both robots ([`crate::verify`]).
 
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -19,10 +21,11 @@ use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput, TrackParams
 use turnprint::pipeline::prepare::MIN_POSES;
 use turnprint::Trajectory;
 
-use crate::fleet::{Fleet, Received};
+use crate::fleet::{CrossCandidate, Fleet, Received};
 use crate::history::Encoder;
 use crate::payload::{Chunk, FrameInfo};
-use crate::transport::{Endpoints, Incoming, Transport};
+use crate::transport::{Endpoints, Incoming, Transport, KEYFRAME_TIMEOUT};
+use crate::verify::{ended, fetcher, Fetched, RefusedKeyframes, Request, Verification};
 
 /// How often a robot publishes its status, and the least time between two
 /// catch-up queries to one robot: a missed chunk is noticed within about
@@ -101,6 +104,11 @@ impl Drop for StopOnDrop {
     }
 }
 
+/// How long, after the cross-robot candidates stop, the stream waits for
+/// their verdicts at most: a keyframe fetch and the verifier's own expiry
+/// (which ends every candidate it holds) with room to spare.
+const VERDICT_WAIT: Duration = Duration::from_secs(20);
+
 /// Streams `trajectory` (named `name`) as robot `options.robot` of the
 /// fleet and writes JSON Lines to `out`; returns the summary.
 pub fn stream(
@@ -108,6 +116,72 @@ pub fn stream(
     name: &str,
     config: &OnlineConfig,
     options: &Options,
+    out: &mut dyn Write,
+) -> Result<Value, StreamError> {
+    run(trajectory, name, config, options, None, out)
+}
+
+/// As [`stream`], with every cross-robot candidate verified by
+/// `verification` on the keyframes of both robots; this robot serves its
+/// own to the others.
+pub fn stream_verified(
+    trajectory: &Trajectory,
+    name: &str,
+    config: &OnlineConfig,
+    options: &Options,
+    verification: &mut dyn Verification,
+    out: &mut dyn Write,
+) -> Result<Value, StreamError> {
+    run(trajectory, name, config, options, Some(verification), out)
+}
+
+/// The cross-robot candidates' verification while the stream runs.
+struct Verifying<'a> {
+    verification: &'a mut dyn Verification,
+    requests: Option<crossbeam::channel::Sender<Request>>,
+    answers: Receiver<Fetched>,
+    fetcher: Option<JoinHandle<()>>,
+    /// Requests sent and not yet answered.
+    fetching: usize,
+    refused: Arc<RefusedKeyframes>,
+}
+
+impl Verifying<'_> {
+    /// Asks for the other robot's keyframe of candidate `id`.
+    fn request(&mut self, id: u64, candidate: CrossCandidate) {
+        if let Some(tx) = &self.requests {
+            if tx.send(Request { id, candidate }).is_ok() {
+                self.fetching += 1;
+            }
+        }
+    }
+
+    /// The events of keyframes fetched and verdicts arrived since the last call.
+    fn events(&mut self) -> Vec<Value> {
+        let mut events = Vec::new();
+        for f in self.answers.try_iter() {
+            self.fetching -= 1;
+            let Request { id, candidate } = f.request;
+            match f.keyframe {
+                Ok(k) => events.extend(self.verification.submit(id, &candidate, k)),
+                Err(why) => events.push(ended("expired", id, &candidate, json!({"reason": why}))),
+            }
+        }
+        events.extend(self.verification.poll());
+        events
+    }
+
+    fn done(&self) -> bool {
+        self.fetching == 0 && self.verification.open() == 0
+    }
+}
+
+fn run(
+    trajectory: &Trajectory,
+    name: &str,
+    config: &OnlineConfig,
+    options: &Options,
+    verification: Option<&mut dyn Verification>,
     out: &mut dyn Write,
 ) -> Result<Value, StreamError> {
     for (what, v) in [("fleet", &options.fleet), ("robot", &options.robot)] {
@@ -139,6 +213,35 @@ pub fn stream(
     )?);
     // Late joiner or not: whatever the others have published so far.
     transport.catch_up("*");
+    let mut verifying = match verification {
+        Some(v) => {
+            transport.serve_keyframes(v.source())?;
+            let refused = Arc::new(RefusedKeyframes::default());
+            let (tx, answers, thread) = fetcher(transport.clone(), refused.clone());
+            Some(Verifying {
+                verification: v,
+                requests: Some(tx),
+                answers,
+                fetcher: Some(thread),
+                fetching: 0,
+                refused,
+            })
+        }
+        None => None,
+    };
+    let mut next_id = 0u64;
+    let mut cross_event = |c: CrossCandidate, verifying: &mut Option<Verifying>| -> Value {
+        let id = next_id;
+        next_id += 1;
+        let mut event = c.to_json();
+        if let Some(o) = event.as_object_mut() {
+            o.insert("id".into(), json!(id));
+        }
+        if let Some(v) = verifying.as_mut() {
+            v.request(id, c);
+        }
+        event
+    };
     let stop = Arc::new(AtomicBool::new(false));
     let _stop_on_drop = StopOnDrop(stop.clone());
     let status = status_thread(transport.clone(), epoch, stop.clone());
@@ -188,7 +291,12 @@ pub fn stream(
         }
         for c in cand_rx.try_iter() {
             cross += 1;
-            write(out, &c)?;
+            write(out, &cross_event(c, &mut verifying))?;
+        }
+        if let Some(v) = verifying.as_mut() {
+            for e in v.events() {
+                write(out, &e)?;
+            }
         }
     }
     let (params, poses) = (detector.params(), detector.poses());
@@ -206,7 +314,12 @@ pub fn stream(
         }
         if let Ok(c) = cand_rx.recv_timeout(left.min(IDLE)) {
             cross += 1;
-            write(out, &c)?;
+            write(out, &cross_event(c, &mut verifying))?;
+        }
+        if let Some(v) = verifying.as_mut() {
+            for e in v.events() {
+                write(out, &e)?;
+            }
         }
     }
     stop.store(true, Ordering::Relaxed);
@@ -216,8 +329,46 @@ pub fn stream(
         .map_err(|_| bad("the fleet's matching thread stopped on an internal error"))?;
     for c in cand_rx.try_iter() {
         cross += 1;
-        write(out, &c)?;
+        write(out, &cross_event(c, &mut verifying))?;
     }
+    // Every cross-robot candidate ends: its keyframe fetched or not, its
+    // verdict in or expired.
+    let verified = match verifying.as_mut() {
+        Some(v) => {
+            v.requests = None;
+            let deadline = Instant::now() + KEYFRAME_TIMEOUT + VERDICT_WAIT;
+            while !v.done() && Instant::now() < deadline {
+                for e in v.events() {
+                    write(out, &e)?;
+                }
+                std::thread::sleep(IDLE);
+            }
+            if let Some(t) = v.fetcher.take() {
+                let _ = t.join();
+            }
+            for e in v.events() {
+                write(out, &e)?;
+            }
+            for e in v
+                .verification
+                .expire_all("the stream ended before its verdict")
+            {
+                write(out, &e)?;
+            }
+            let mut s = v.verification.summary();
+            if let Some(o) = s.as_object_mut() {
+                o.insert(
+                    "refused_keyframes".into(),
+                    json!({
+                        "garbage": v.refused.garbage.load(Ordering::Relaxed),
+                        "version": v.refused.version.load(Ordering::Relaxed),
+                    }),
+                );
+            }
+            Some(s)
+        }
+        None => None,
+    };
     let sent = &transport.sent;
     let mut s = serde_json::to_value(summary).unwrap_or_default();
     if let Some(o) = s.as_object_mut() {
@@ -237,11 +388,16 @@ pub fn stream(
                 "chunks": transport.chunks_published(),
                 "replied_bytes": sent.replied.load(Ordering::Relaxed),
                 "queries_answered": sent.queries.load(Ordering::Relaxed),
+                "keyframes_served": sent.keyframes.load(Ordering::Relaxed),
+                "keyframe_bytes": sent.keyframe_bytes.load(Ordering::Relaxed),
                 "history_bytes": transport.stored_bytes(),
             }),
         );
         o.insert("fleet_state".into(), fleet.stats_json());
         o.insert("cpu_s".into(), json!(cpu_seconds()));
+        if let Some(v) = verified {
+            o.insert("verify".into(), v);
+        }
     }
     write(out, &s)?;
     out.flush().map_err(output_error)?;
@@ -315,7 +471,7 @@ fn matching(
     mut fleet: Fleet,
     own: Receiver<Chunk>,
     incoming: Receiver<Incoming>,
-    candidates: Sender<Value>,
+    candidates: Sender<CrossCandidate>,
     transport: &Transport,
     stop: &AtomicBool,
 ) -> Fleet {
@@ -353,7 +509,7 @@ fn matching(
             take(&mut fleet, m);
         }
         for c in fleet.match_new(stopping) {
-            let _ = candidates.send(c.to_json());
+            let _ = candidates.send(c);
         }
         if stopping {
             return fleet;

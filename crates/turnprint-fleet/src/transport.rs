@@ -2,7 +2,9 @@
 //! payloads published under `turnprint/<fleet>/<robot>/data`, every other
 //! robot's received there, and the robot's history (its newest chunks, up
 //! to [`STORE_BUDGET`]) served under `turnprint/<fleet>/<robot>/history`
-//! for late joiners and for robots that missed a chunk.
+//! for late joiners and for robots that missed a chunk. With verification,
+//! the robot's keyframes are served under
+//! `turnprint/<fleet>/<robot>/keyframes/<pose>` ([`crate::keyframe`]).
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -21,6 +23,16 @@ use crate::payload::encode_status;
 /// or LAN round trip, short enough that a robot gone silent does not hold
 /// the query open for long.
 const QUERY_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// How long a keyframe fetch waits for its answer: a rendered or stored
+/// image is a few hundred kilobytes, milliseconds on a LAN; a robot that
+/// does not answer within this is taken for gone and the candidate
+/// expires.
+pub const KEYFRAME_TIMEOUT: Duration = Duration::from_secs(3);
+
+/// What serves a robot's keyframes: the encoded keyframe nearest a pose
+/// index, `None` when it has none there.
+pub type KeyframeSource = Arc<dyn Fn(u64) -> Option<Vec<u8>> + Send + Sync>;
 
 /// Bytes of published chunks a robot keeps to serve: past them the oldest
 /// are dropped, and the status tells receivers where the served history
@@ -97,6 +109,10 @@ pub struct Sent {
     pub replied: AtomicU64,
     /// Catch-up queries answered.
     pub queries: AtomicU64,
+    /// Keyframes served to other robots.
+    pub keyframes: AtomicU64,
+    /// Payload bytes of the keyframes served.
+    pub keyframe_bytes: AtomicU64,
 }
 
 /// A robot's Zenoh session.
@@ -106,6 +122,9 @@ pub struct Transport {
     publisher: Publisher<'static>,
     _subscriber: Subscriber<()>,
     _queryable: Queryable<()>,
+    /// The keyframe queryable, once serving.
+    keyframes: Mutex<Option<Queryable<()>>>,
+    robot: String,
     /// The newest chunks published (the history served to others).
     store: Arc<Mutex<Store>>,
     /// Where received payloads go.
@@ -206,6 +225,8 @@ impl Transport {
             publisher,
             _subscriber: subscriber,
             _queryable: queryable,
+            keyframes: Mutex::new(None),
+            robot: robot.to_string(),
             store,
             incoming,
             sent,
@@ -265,6 +286,62 @@ impl Transport {
                 }
             })
             .wait();
+    }
+
+    /// Serves this robot's keyframes from `source` under
+    /// `turnprint/<fleet>/<robot>/keyframes/<pose>`.
+    pub fn serve_keyframes(&self, source: KeyframeSource) -> Result<(), String> {
+        let sent = self.sent.clone();
+        let queryable = self
+            .session
+            .declare_queryable(format!(
+                "turnprint/{}/{}/keyframes/*",
+                self.fleet, self.robot
+            ))
+            .callback(move |query| {
+                let key = query.key_expr().as_str().to_string();
+                let Some(pose) = key.rsplit('/').next().and_then(|p| p.parse::<u64>().ok()) else {
+                    return;
+                };
+                if let Some(bytes) = source(pose) {
+                    sent.keyframes.fetch_add(1, Ordering::Relaxed);
+                    sent.keyframe_bytes
+                        .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+                    let _ = query.reply(key.as_str(), bytes).wait();
+                }
+            })
+            .wait()
+            .map_err(|e| format!("declaring the keyframe queryable: {e}"))?;
+        if let Ok(mut k) = self.keyframes.lock() {
+            *k = Some(queryable);
+        }
+        Ok(())
+    }
+
+    /// Asks `robot` for its keyframe nearest pose `pose` and waits for the
+    /// answer (at most [`KEYFRAME_TIMEOUT`]): the payload, or why there is
+    /// none.
+    pub fn fetch_keyframe(&self, robot: &str, pose: u64) -> Result<Vec<u8>, String> {
+        let replies = self
+            .session
+            .get(format!("turnprint/{}/{robot}/keyframes/{pose}", self.fleet))
+            .target(QueryTarget::All)
+            .timeout(KEYFRAME_TIMEOUT)
+            .wait()
+            .map_err(|e| format!("asking {robot} for keyframe {pose}: {e}"))?;
+        match replies.recv() {
+            Ok(reply) => match reply.result() {
+                Ok(sample) => Ok(sample.payload().to_bytes().into_owned()),
+                Err(e) => Err(format!(
+                    "{robot} answered keyframe {pose} with an error: {}",
+                    e.payload().try_to_string().unwrap_or_default()
+                )),
+            },
+            Err(_) => Err(format!(
+                "{robot} served no keyframe {pose} within {} s",
+                KEYFRAME_TIMEOUT.as_secs()
+            )),
+        }
     }
 
     /// Bytes of the history served to others (the newest chunks, within
