@@ -7,7 +7,9 @@
 //! ([`turnprint_fleet::keyframe`]). For a cross-robot candidate the robot
 //! fetches the other's keyframe at the candidate's middle correspondence,
 //! publishes it into its own verifier sidecar beside its own keyframe, and
-//! submits the pair; the verifier is the one `stream --verify` starts.
+//! submits the pair; the verifier is the one `stream --verify` starts. The
+//! robot's own loop candidates are verified on its own keyframes, as
+//! `stream --verify` does.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
@@ -16,7 +18,7 @@ use serde_json::{json, Value};
 
 use turnprint_fleet::keyframe::Keyframe;
 use turnprint_fleet::transport::KeyframeSource;
-use turnprint_fleet::verify::{ended, verified_at, Verification};
+use turnprint_fleet::verify::{verified_at, Verification};
 use turnprint_fleet::CrossCandidate;
 use turnprint_ipc::client::{Candidate, Outcome, VerifierClient};
 use turnprint_ipc::payload::CameraParams;
@@ -31,7 +33,11 @@ const FOREIGN: u64 = 1 << 63;
 /// A candidate handed to the verifier.
 struct Open {
     id: u64,
-    candidate: CrossCandidate,
+    /// The other robot of a cross-robot candidate; `None` for a loop of
+    /// this robot's own.
+    robot: Option<String>,
+    query_range: [usize; 2],
+    match_range: [usize; 2],
     keyframes: [u64; 2],
 }
 
@@ -39,6 +45,7 @@ struct Open {
 #[derive(Debug, Default, serde::Serialize)]
 struct Counts {
     submitted: u64,
+    own_submitted: u64,
     confirmed: u64,
     rejected: u64,
     expired: u64,
@@ -78,16 +85,58 @@ impl FleetVerifier {
         FOREIGN | (number & 0x7f_ffff) << 40 | (pose & ((1 << 40) - 1))
     }
 
+    /// Ending event `kind` of `o`: the fields of `stream --verify`'s, and
+    /// for a cross-robot candidate the other robot.
     fn event(&self, kind: &str, o: &Open, extra: Value) -> Value {
-        let mut v = ended(kind, o.id, &o.candidate, extra);
+        let mut v = json!({
+            "event": kind,
+            "id": o.id,
+            "query_range": o.query_range,
+            "match_range": o.match_range,
+            "query_keyframe": o.keyframes[0],
+            "match_keyframe": o.keyframes[1] & ((1 << 40) - 1),
+        });
         if let Some(m) = v.as_object_mut() {
-            m.insert("query_keyframe".into(), json!(o.keyframes[0]));
-            m.insert(
-                "match_keyframe".into(),
-                json!(o.keyframes[1] & ((1 << 40) - 1)),
-            );
+            if let Some(r) = &o.robot {
+                m.insert("robot".into(), json!(r));
+            }
+            if let Value::Object(e) = extra {
+                m.extend(e);
+            }
         }
         v
+    }
+
+    /// Publishes this robot's keyframe `k` unless it has been; whether the
+    /// verifier has it.
+    fn publish_own(&mut self, k: u64) -> bool {
+        if self.published.contains(&k) {
+            return true;
+        }
+        let (camera, image) = self.renderer.render(k as usize);
+        let t = self.renderer.time(k as usize);
+        let ok = self.client.publish_keyframe(k, t, &camera, &image).is_ok();
+        if ok {
+            self.published.insert(k);
+            self.counts.own_keyframes_published += 1;
+        }
+        ok
+    }
+
+    /// Submits `open` with the hypothesis' similarity and the poses `q`,
+    /// `m` of its middle correspondence.
+    fn submit_open(&mut self, open: Open, h: &turnprint::Hypothesis, (q, m): (usize, usize)) {
+        let handle = self.client.submit(Candidate {
+            query_keyframe: open.keyframes[0],
+            match_keyframe: open.keyframes[1],
+            query_pose: q as u64,
+            match_pose: m as u64,
+            scale: h.scale,
+            rotation: h.rotation,
+            translation: h.translation,
+            score: h.score,
+        });
+        self.open.insert(handle, open);
     }
 }
 
@@ -119,30 +168,23 @@ impl Verification for FleetVerifier {
         let (q, m) = verified_at(c);
         let own = self.renderer.snap(q) as u64;
         let foreign = self.foreign_id(&c.robot, theirs.pose);
+        let h = &c.hypothesis;
         let open = Open {
             id,
-            candidate: c.clone(),
+            robot: Some(c.robot.clone()),
+            query_range: h.a_range,
+            match_range: h.b_range,
             keyframes: [own, foreign],
         };
-        if self.published.insert(own) {
-            let (camera, image) = self.renderer.render(own as usize);
-            let t = self.renderer.time(own as usize);
-            if self
-                .client
-                .publish_keyframe(own, t, &camera, &image)
-                .is_err()
-            {
-                self.published.remove(&own);
-                self.counts.expired += 1;
-                return Some(self.event(
-                    "expired",
-                    &open,
-                    json!({"reason": "own keyframe not published"}),
-                ));
-            }
-            self.counts.own_keyframes_published += 1;
+        if !self.publish_own(own) {
+            self.counts.expired += 1;
+            return Some(self.event(
+                "expired",
+                &open,
+                json!({"reason": "own keyframe not published"}),
+            ));
         }
-        if self.published.insert(foreign) {
+        if !self.published.contains(&foreign) {
             let camera = CameraParams {
                 kind: theirs.camera_kind,
                 width: theirs.width,
@@ -154,7 +196,6 @@ impl Verification for FleetVerifier {
                 .client
                 .publish_keyframe(foreign, theirs.t, &camera, &theirs.image)
             {
-                self.published.remove(&foreign);
                 self.counts.expired += 1;
                 return Some(self.event(
                     "expired",
@@ -162,21 +203,38 @@ impl Verification for FleetVerifier {
                     json!({"reason": format!("{}'s keyframe not published: {e}", c.robot)}),
                 ));
             }
+            self.published.insert(foreign);
             self.counts.their_keyframes_published += 1;
         }
-        let h = &c.hypothesis;
-        let handle = self.client.submit(Candidate {
-            query_keyframe: own,
-            match_keyframe: foreign,
-            query_pose: q as u64,
-            match_pose: m as u64,
-            scale: h.scale,
-            rotation: h.rotation,
-            translation: h.translation,
-            score: h.score,
-        });
+        self.submit_open(open, h, (q, m));
         self.counts.submitted += 1;
-        self.open.insert(handle, open);
+        None
+    }
+
+    fn submit_own(&mut self, id: u64, h: &turnprint::Hypothesis) -> Option<Value> {
+        let (q, m) = h
+            .correspondences
+            .get(h.correspondences.len() / 2)
+            .copied()
+            .unwrap_or((h.a_range[0], h.b_range[0]));
+        let keyframes = [self.renderer.snap(q) as u64, self.renderer.snap(m) as u64];
+        let open = Open {
+            id,
+            robot: None,
+            query_range: h.a_range,
+            match_range: h.b_range,
+            keyframes,
+        };
+        if !(self.publish_own(keyframes[0]) && self.publish_own(keyframes[1])) {
+            self.counts.expired += 1;
+            return Some(self.event(
+                "expired",
+                &open,
+                json!({"reason": "own keyframe not published"}),
+            ));
+        }
+        self.submit_open(open, h, (q, m));
+        self.counts.own_submitted += 1;
         None
     }
 

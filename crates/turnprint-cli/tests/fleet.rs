@@ -5,7 +5,8 @@
 //! that joins after the others have driven, one killed with `kill -9` and
 //! restarted, a peer that sends garbage and a newer payload version.
 //! With `--verify`, cross-robot candidates are verified on both robots'
-//! keyframes, each robot's served to the other over Zenoh.
+//! keyframes, each robot's served to the other over Zenoh, and each
+//! robot's own loops on its own.
 //!
 //! The tests run one at a time (each starts several processes on a
 //! two-core machine) and wait by polling with generous deadlines, never
@@ -860,45 +861,46 @@ fn cross_robot_candidates_are_verified_on_both_robots_keyframes() {
             .map(|l| serde_json::from_str(l).expect("JSON"))
             .collect();
         let cross = |e: &&Value| e.get("robot").is_some_and(|v| v == other.name.as_str());
-        let candidates: Vec<u64> = events
-            .iter()
-            .filter(|e| e["event"] == "candidate")
-            .filter(cross)
-            .map(|e| e["id"].as_u64().expect("a cross candidate's id"))
-            .collect();
-        // Every cross-robot candidate ends once.
-        let mut ended: Vec<u64> = events
-            .iter()
-            .filter(|e| {
-                ["confirmed", "rejected", "expired"].contains(&e["event"].as_str().unwrap_or(""))
-            })
-            .filter(cross)
-            .map(|e| e["id"].as_u64().expect("an ending's id"))
-            .collect();
-        ended.sort_unstable();
-        let mut expected = candidates.clone();
-        expected.sort_unstable();
+        let mine = |e: &&Value| e.get("robot").is_none();
+        let ids = |event: &[&str], whose: &dyn Fn(&&Value) -> bool| -> Vec<u64> {
+            let mut ids: Vec<u64> = events
+                .iter()
+                .filter(|e| event.contains(&e["event"].as_str().unwrap_or("")))
+                .filter(|e| whose(e))
+                .map(|e| e["id"].as_u64().expect("an id"))
+                .collect();
+            ids.sort_unstable();
+            ids
+        };
+        // Every candidate, cross-robot or its own, ends once.
+        let endings = ["confirmed", "rejected", "expired"];
+        let candidates = ids(&["candidate"], &cross);
         assert_eq!(
-            ended, expected,
-            "{}: candidates and endings differ",
+            ids(&endings, &cross),
+            candidates,
+            "{}: cross candidates and endings differ",
+            own.name
+        );
+        let loops = ids(&["candidate"], &mine);
+        assert_eq!(
+            ids(&endings, &mine),
+            loops,
+            "{}: own candidates and endings differ",
             own.name
         );
         // No candidate is confirmed on views of different places; true
         // ones are.
-        for e in events
-            .iter()
-            .filter(|e| e["event"] == "confirmed")
-            .filter(cross)
-        {
+        for e in events.iter().filter(|e| e["event"] == "confirmed") {
             let seen = |k: &str, r: &Robot| r.truth[e[k].as_u64().expect("a keyframe") as usize];
-            let apart = (seen("query_keyframe", own) - seen("match_keyframe", other)).norm();
+            let theirs = if cross(&e) { other } else { own };
+            let apart = (seen("query_keyframe", own) - seen("match_keyframe", theirs)).norm();
             assert!(
                 apart <= SAME_PLACE,
                 "{}: keyframes {apart:.1} apart confirmed: {e}",
                 own.name
             );
             assert!(e["inliers"].as_u64().is_some_and(|n| n > 0), "{e}");
-            confirmed_true += usize::from(truly_shared(e, own, other));
+            confirmed_true += usize::from(cross(&e) && truly_shared(e, own, other));
         }
         let v = &summary["verify"];
         assert_eq!(

@@ -6,7 +6,7 @@
 //! writes the cross-robot candidates; after the path and `linger` seconds,
 //! the summary holds the estimate of every robot heard from. With a
 //! [`Verification`], each cross-robot candidate is verified on the images of
-//! both robots ([`crate::verify`]).
+//! both robots, and each of its own on its own ([`crate::verify`]).
 
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -121,9 +121,9 @@ pub fn stream(
     run(trajectory, name, config, options, None, out)
 }
 
-/// As [`stream`], with every cross-robot candidate verified by
-/// `verification` on the keyframes of both robots; this robot serves its
-/// own to the others.
+/// As [`stream`], with every candidate verified by `verification`: a
+/// cross-robot one on the keyframes of both robots (this robot serves its
+/// own to the others), its own loops on its own.
 pub fn stream_verified(
     trajectory: &Trajectory,
     name: &str,
@@ -288,6 +288,11 @@ fn run(
         }
         for e in detector.poll() {
             write(out, &e.to_json())?;
+            if let Some(v) = verifying.as_mut() {
+                if let Some(ended) = v.verification.submit_own(e.id, &e.hypothesis) {
+                    write(out, &ended)?;
+                }
+            }
         }
         for c in cand_rx.try_iter() {
             cross += 1;
@@ -305,6 +310,11 @@ fn run(
     publisher.publish(params, poses, true)?;
     for e in rest {
         write(out, &e.to_json())?;
+        if let Some(v) = verifying.as_mut() {
+            if let Some(ended) = v.verification.submit_own(e.id, &e.hypothesis) {
+                write(out, &ended)?;
+            }
+        }
     }
     let linger_end = Instant::now() + Duration::from_secs_f64(options.linger);
     loop {

@@ -6,7 +6,9 @@
 //! at the candidate's middle correspondence, on a thread of its own (a
 //! robot that is gone costs a timeout there, never the replay), and hands
 //! the pair to its verifier; every candidate then ends in one `confirmed`,
-//! `rejected` or `expired` event that names the other robot.
+//! `rejected` or `expired` event that names the other robot. The robot's
+//! own loop candidates are verified as `stream --verify` does, on its own
+//! keyframes.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -28,6 +30,9 @@ pub trait Verification {
     /// Hands candidate `id` to the verifier with the other robot's
     /// keyframe `theirs`; an ending event when it cannot be verified at all.
     fn submit(&mut self, id: u64, candidate: &CrossCandidate, theirs: Keyframe) -> Option<Value>;
+    /// Hands this robot's own loop candidate `id` to the verifier (both
+    /// keyframes its own); an ending event when it cannot be verified.
+    fn submit_own(&mut self, id: u64, loop_: &turnprint::Hypothesis) -> Option<Value>;
     /// The ending events of the verdicts that have arrived.
     fn poll(&mut self) -> Vec<Value>;
     /// Candidates handed over and not yet ended.
