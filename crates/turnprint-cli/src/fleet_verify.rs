@@ -20,10 +20,10 @@ use turnprint_fleet::keyframe::Keyframe;
 use turnprint_fleet::transport::KeyframeSource;
 use turnprint_fleet::verify::{verified_at, Verification};
 use turnprint_fleet::CrossCandidate;
-use turnprint_ipc::client::{Candidate, Outcome, VerifierClient};
+use turnprint_ipc::client::{Outcome, VerifierClient};
 use turnprint_ipc::payload::CameraParams;
 
-use crate::keyframes::{Renderer, Sidecar};
+use crate::keyframes::{candidate, ending, verdict, Renderer, Sidecar};
 
 /// Verifier ids of other robots' keyframes have this bit set (this robot's
 /// own are their pose indices), then the robot's number (in the order
@@ -88,21 +88,11 @@ impl FleetVerifier {
     /// Ending event `kind` of `o`: the fields of `stream --verify`'s, and
     /// for a cross-robot candidate the other robot.
     fn event(&self, kind: &str, o: &Open, extra: Value) -> Value {
-        let mut v = json!({
-            "event": kind,
-            "id": o.id,
-            "query_range": o.query_range,
-            "match_range": o.match_range,
-            "query_keyframe": o.keyframes[0],
-            "match_keyframe": o.keyframes[1] & ((1 << 40) - 1),
-        });
-        if let Some(m) = v.as_object_mut() {
-            if let Some(r) = &o.robot {
-                m.insert("robot".into(), json!(r));
-            }
-            if let Value::Object(e) = extra {
-                m.extend(e);
-            }
+        let keyframes = [o.keyframes[0], o.keyframes[1] & ((1 << 40) - 1)];
+        let ranges = [o.query_range, o.match_range];
+        let mut v = ending(kind, o.id, ranges, keyframes, extra);
+        if let (Some(m), Some(r)) = (v.as_object_mut(), &o.robot) {
+            m.insert("robot".into(), json!(r));
         }
         v
     }
@@ -126,16 +116,7 @@ impl FleetVerifier {
     /// Submits `open` with the hypothesis' similarity and the poses `q`,
     /// `m` of its middle correspondence.
     fn submit_open(&mut self, open: Open, h: &turnprint::Hypothesis, (q, m): (usize, usize)) {
-        let handle = self.client.submit(Candidate {
-            query_keyframe: open.keyframes[0],
-            match_keyframe: open.keyframes[1],
-            query_pose: q as u64,
-            match_pose: m as u64,
-            scale: h.scale,
-            rotation: h.rotation,
-            translation: h.translation,
-            score: h.score,
-        });
+        let handle = self.client.submit(candidate(h, open.keyframes, (q, m)));
         self.open.insert(handle, open);
     }
 }
@@ -245,38 +226,13 @@ impl Verification for FleetVerifier {
             let Some(c) = self.open.remove(&o.id()) else {
                 continue;
             };
-            events.push(match &o {
-                Outcome::Confirmed {
-                    match_R_query,
-                    match_t_query,
-                    inliers,
-                    ..
-                } => {
-                    self.counts.confirmed += 1;
-                    let r = match_R_query;
-                    self.event(
-                        "confirmed",
-                        &c,
-                        json!({
-                            "inliers": inliers,
-                            "relative_pose": {
-                                "match_R_query": [[r[(0,0)], r[(0,1)], r[(0,2)]], [r[(1,0)], r[(1,1)], r[(1,2)]], [r[(2,0)], r[(2,1)], r[(2,2)]]],
-                                "match_t_query": [match_t_query.x, match_t_query.y, match_t_query.z],
-                            },
-                        }),
-                    )
-                }
-                Outcome::Rejected {
-                    reason, inliers, ..
-                } => {
-                    self.counts.rejected += 1;
-                    self.event("rejected", &c, json!({"reason": reason, "inliers": inliers}))
-                }
-                Outcome::Expired { reason, .. } => {
-                    self.counts.expired += 1;
-                    self.event("expired", &c, json!({"reason": format!("{reason:?}")}))
-                }
-            });
+            match &o {
+                Outcome::Confirmed { .. } => self.counts.confirmed += 1,
+                Outcome::Rejected { .. } => self.counts.rejected += 1,
+                Outcome::Expired { .. } => self.counts.expired += 1,
+            }
+            let (kind, fields) = verdict(&o);
+            events.push(self.event(kind, &c, fields));
         }
         events
     }

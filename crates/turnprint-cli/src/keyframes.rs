@@ -10,8 +10,9 @@ use std::time::{Duration, Instant};
 
 use nalgebra::Isometry3;
 
+use serde_json::{json, Value};
 use turnprint::{Error, Result, Trajectory};
-use turnprint_ipc::client::{ClientConfig, VerifierClient};
+use turnprint_ipc::client::{Candidate, ClientConfig, Outcome, VerifierClient};
 use turnprint_ipc::payload::CameraParams;
 use turnprint_verifier::render::{camera_poses, on_road, render, World, WorldParams};
 
@@ -166,6 +167,75 @@ pub fn start_verifier(options: &VerifyOptions) -> Result<(Sidecar, VerifierClien
     })
     .map_err(|e| Error::input("iceoryx2", e.to_string()))?;
     Ok((sidecar, client, prefix))
+}
+
+/// The verifier's candidate of hypothesis `h` at `keyframes`, its
+/// correspondence `poses` (query, match) between them.
+pub fn candidate(
+    h: &turnprint::Hypothesis,
+    keyframes: [u64; 2],
+    poses: (usize, usize),
+) -> Candidate {
+    Candidate {
+        query_keyframe: keyframes[0],
+        match_keyframe: keyframes[1],
+        query_pose: poses.0 as u64,
+        match_pose: poses.1 as u64,
+        scale: h.scale,
+        rotation: h.rotation,
+        translation: h.translation,
+        score: h.score,
+    }
+}
+
+/// An ending event (`confirmed`, `rejected` or `expired`) of candidate
+/// `id`: its ranges and keyframes, then the fields of `extra`.
+pub fn ending(
+    kind: &str,
+    id: u64,
+    ranges: [[usize; 2]; 2],
+    keyframes: [u64; 2],
+    extra: Value,
+) -> Value {
+    let mut v = json!({
+        "event": kind,
+        "id": id,
+        "query_range": ranges[0],
+        "match_range": ranges[1],
+        "query_keyframe": keyframes[0],
+        "match_keyframe": keyframes[1],
+    });
+    if let (Some(o), Value::Object(e)) = (v.as_object_mut(), extra) {
+        o.extend(e);
+    }
+    v
+}
+
+/// The ending event's kind and fields of a verifier's outcome: `confirmed`
+/// with the inliers and the relative pose, `rejected` with the reason and
+/// the inliers, `expired` with the reason.
+pub fn verdict(o: &Outcome) -> (&'static str, Value) {
+    match o {
+        Outcome::Confirmed {
+            match_R_query: r,
+            match_t_query: t,
+            inliers,
+            ..
+        } => (
+            "confirmed",
+            json!({
+                "inliers": inliers,
+                "relative_pose": {
+                    "match_R_query": [[r[(0,0)], r[(0,1)], r[(0,2)]], [r[(1,0)], r[(1,1)], r[(1,2)]], [r[(2,0)], r[(2,1)], r[(2,2)]]],
+                    "match_t_query": [t.x, t.y, t.z],
+                },
+            }),
+        ),
+        Outcome::Rejected {
+            reason, inliers, ..
+        } => ("rejected", json!({"reason": reason, "inliers": inliers})),
+        Outcome::Expired { reason, .. } => ("expired", json!({"reason": format!("{reason:?}")})),
+    }
 }
 
 /// The truth index of each input pose: by timestamp when both have them

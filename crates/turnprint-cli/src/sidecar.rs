@@ -24,10 +24,10 @@ use serde_json::{json, Value};
 use turnprint::io::{read_trajectory, Format};
 use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint::{Error, Result, Trajectory};
-use turnprint_ipc::client::{Candidate, Outcome, VerifierClient};
+use turnprint_ipc::client::{Outcome, VerifierClient};
 use turnprint_verifier::camera::CameraModel;
 
-use crate::keyframes::{start_verifier, Renderer};
+use crate::keyframes::{candidate, ending, start_verifier, verdict, Renderer};
 
 /// Settings of a verified replay.
 #[derive(Debug, Clone)]
@@ -221,16 +221,7 @@ pub fn stream_verified(
         }
         let pairing = pairing_name(renderer.camera_of(qk), renderer.camera_of(mk));
         let truly = truly_revisits(h.a_range, h.b_range, &to_truth, &truth);
-        let id = client.submit(Candidate {
-            query_keyframe: qk as u64,
-            match_keyframe: mk as u64,
-            query_pose: q as u64,
-            match_pose: m as u64,
-            scale: h.scale,
-            rotation: h.rotation,
-            translation: h.translation,
-            score: h.score,
-        });
+        let id = client.submit(candidate(h, [qk as u64, mk as u64], (q, m)));
         let row = summary.pairings.entry(pairing.clone()).or_default();
         row[0] += 1;
         if truly == Some(true) {
@@ -335,13 +326,8 @@ fn report(
     {
         *best = Some(c.hypothesis.clone());
     }
-    let line = match o {
-        Outcome::Confirmed {
-            match_R_query,
-            match_t_query,
-            inliers,
-            ..
-        } => {
+    match o {
+        Outcome::Confirmed { .. } => {
             s.confirmed += 1;
             let row = s.pairings.entry(c.pairing.clone()).or_default();
             row[1] += 1;
@@ -350,56 +336,25 @@ fn report(
                 Some(false) => row[4] += 1,
                 None => {}
             }
-            let r = match_R_query;
-            ended(
-                "confirmed",
-                &c,
-                json!({
-                    "inliers": inliers,
-                    "relative_pose": {
-                        "match_R_query": [[r[(0,0)], r[(0,1)], r[(0,2)]], [r[(1,0)], r[(1,1)], r[(1,2)]], [r[(2,0)], r[(2,1)], r[(2,2)]]],
-                        "match_t_query": [match_t_query.x, match_t_query.y, match_t_query.z],
-                    },
-                }),
-            )
         }
-        Outcome::Rejected {
-            reason, inliers, ..
-        } => {
-            s.rejected += 1;
-            ended(
-                "rejected",
-                &c,
-                json!({"reason": reason, "inliers": inliers}),
-            )
-        }
-        Outcome::Expired { reason, .. } => {
-            s.expired += 1;
-            ended("expired", &c, json!({"reason": format!("{reason:?}")}))
-        }
-    };
+        Outcome::Rejected { .. } => s.rejected += 1,
+        Outcome::Expired { .. } => s.expired += 1,
+    }
+    let (kind, fields) = verdict(o);
+    let line = ended(kind, &c, fields);
     writeln!(out, "{line}")?;
     Ok(confirmed)
 }
 
-/// An ending event with the candidate's ranges and keyframes.
+/// An ending event with the candidate's ranges, keyframes and cameras.
 fn ended(kind: &str, c: &Open, extra: Value) -> Value {
-    let mut v = json!({
-        "event": kind,
-        "id": c.event,
-        "query_range": c.query_range,
-        "match_range": c.match_range,
-        "query_keyframe": c.keyframes[0],
-        "match_keyframe": c.keyframes[1],
-        "cameras": c.pairing,
-    });
-    if let (Some(o), Some(e)) = (v.as_object_mut(), extra.as_object()) {
-        for (k, x) in e {
-            o.insert(k.clone(), x.clone());
+    let ranges = [c.query_range, c.match_range];
+    let mut v = ending(kind, c.event, ranges, c.keyframes, extra);
+    if let Some(o) = v.as_object_mut() {
+        o.insert("cameras".into(), json!(c.pairing));
+        if let Some(t) = c.truly {
+            o.insert("true_revisit".into(), json!(t));
         }
-    }
-    if let (Some(o), Some(t)) = (v.as_object_mut(), c.truly) {
-        o.insert("true_revisit".into(), json!(t));
     }
     v
 }

@@ -101,6 +101,8 @@ struct Robot {
     min_common: f64,
     frame: Similarity3,
     file: PathBuf,
+    /// More arguments of its `stream` command.
+    extra: Vec<String>,
 }
 
 impl Robot {
@@ -117,6 +119,7 @@ impl Robot {
             min_common: MIN_COMMON,
             frame,
             file,
+            extra: Vec::new(),
         }
     }
 }
@@ -136,27 +139,6 @@ fn start(
     (rate, linger): (f64, f64),
     tag: &str,
 ) -> Running {
-    start_with(
-        dir,
-        fleet,
-        robot,
-        (listen, connect),
-        (rate, linger),
-        tag,
-        &[],
-    )
-}
-
-/// [`start`] with more arguments.
-fn start_with(
-    dir: &Path,
-    fleet: &str,
-    robot: &Robot,
-    (listen, connect): (u16, &[u16]),
-    (rate, linger): (f64, f64),
-    tag: &str,
-    extra: &[String],
-) -> Running {
     let out = dir.join(format!("{}{tag}.out", robot.name));
     let err = dir.join(format!("{}{tag}.err", robot.name));
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_turnprint"));
@@ -167,7 +149,7 @@ fn start_with(
     for p in connect {
         cmd.args(["--connect", &endpoint(*p)]);
     }
-    cmd.args(extra);
+    cmd.args(&robot.extra);
     let child = cmd
         .stdout(std::fs::File::create(&out).expect("stdout file"))
         .stderr(std::fs::File::create(&err).expect("stderr file"))
@@ -175,6 +157,17 @@ fn start_with(
         .spawn()
         .expect("starting turnprint");
     Running { child, out, err }
+}
+
+/// Starts every robot of `robots`, each listening on a port of its own and
+/// connected to those started before it.
+fn start_all(dir: &Path, fleet: &str, robots: &[Robot], timing: (f64, f64)) -> Vec<Running> {
+    let ports: Vec<u16> = (0..robots.len()).map(|_| free_port()).collect();
+    robots
+        .iter()
+        .enumerate()
+        .map(|(i, robot)| start(dir, fleet, robot, (ports[i], &ports[..i]), timing, ""))
+        .collect()
 }
 
 impl Running {
@@ -361,21 +354,7 @@ fn three_robots_and_a_stranger_place_each_other() {
     let dir = tempfile::tempdir().expect("temp dir");
     let r = robots(dir.path());
     let fleet = fleet_name("three");
-    let ports: Vec<u16> = (0..r.len()).map(|_| free_port()).collect();
-    let running: Vec<Running> = r
-        .iter()
-        .enumerate()
-        .map(|(i, robot)| {
-            start(
-                dir.path(),
-                &fleet,
-                robot,
-                (ports[i], &ports[..i]),
-                (RATE, 4.0),
-                "",
-            )
-        })
-        .collect();
+    let running = start_all(dir.path(), &fleet, &r, (RATE, 4.0));
     let summaries: Vec<Value> = running.into_iter().map(Running::summary).collect();
     for s in &summaries {
         assert_eq!(s["refused"]["garbage"], 0, "{s}");
@@ -684,21 +663,7 @@ fn run_kitti(windows: &[(&str, usize, usize)], seed: u64, rate: f64) -> Option<F
     let dir = tempfile::tempdir().expect("temp dir");
     let r = kitti_robots(dir.path(), windows, seed)?;
     let fleet = fleet_name(&format!("kitti{seed}"));
-    let ports: Vec<u16> = (0..r.len()).map(|_| free_port()).collect();
-    let running: Vec<Running> = r
-        .iter()
-        .enumerate()
-        .map(|(i, robot)| {
-            start(
-                dir.path(),
-                &fleet,
-                robot,
-                (ports[i], &ports[..i]),
-                (rate, 5.0),
-                "",
-            )
-        })
-        .collect();
+    let running = start_all(dir.path(), &fleet, &r, (rate, 5.0));
     let summaries: Vec<Value> = running.into_iter().map(Running::summary).collect();
     if std::env::var_os("TURNPRINT_FLEET_KEEP").is_some() {
         eprintln!("kept in {}", dir.keep().display());
@@ -816,36 +781,21 @@ fn cross_robot_candidates_are_verified_on_both_robots_keyframes() {
     // along the drive.
     let drive = curvy_drive(1, 2000);
     let mut rng = Lcg::new(23);
-    let r = [
-        Robot::new(dir.path(), "a", drive[..1300].to_vec(), &mut rng),
-        Robot::new(dir.path(), "b", drive[700..].to_vec(), &mut rng),
-    ];
     let world = dir.path().join("world.xyz");
     std::fs::write(&world, on_the_ground(&drive)).expect("writing the world");
+    let r = [("a", &drive[..1300]), ("b", &drive[700..])].map(|(name, truth)| {
+        let mut robot = Robot::new(dir.path(), name, truth.to_vec(), &mut rng);
+        let file = dir.path().join(format!("{name}.truth.xyz"));
+        std::fs::write(&file, on_the_ground(truth)).expect("writing a truth");
+        robot.extra = [("--truth", &file), ("--world", &world)]
+            .into_iter()
+            .flat_map(|(flag, path)| [flag.to_string(), path.display().to_string()])
+            .chain(["--verify".to_string()])
+            .collect();
+        robot
+    });
     let fleet = fleet_name("verify");
-    let ports: Vec<u16> = (0..r.len()).map(|_| free_port()).collect();
-    let running: Vec<Running> = r
-        .iter()
-        .enumerate()
-        .map(|(i, robot)| {
-            let truth = dir.path().join(format!("{}.truth.xyz", robot.name));
-            std::fs::write(&truth, on_the_ground(&robot.truth)).expect("writing a truth");
-            let extra = ["--verify", "--truth", truth.to_str().expect("utf-8")]
-                .into_iter()
-                .chain(["--world", world.to_str().expect("utf-8")])
-                .map(String::from)
-                .collect::<Vec<_>>();
-            start_with(
-                dir.path(),
-                &fleet,
-                robot,
-                (ports[i], &ports[..i]),
-                (RATE, 4.0),
-                "",
-                &extra,
-            )
-        })
-        .collect();
+    let running = start_all(dir.path(), &fleet, &r, (RATE, 4.0));
     let outputs: Vec<(Value, String)> = running
         .into_iter()
         .map(|run| {
