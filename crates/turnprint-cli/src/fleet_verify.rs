@@ -1,5 +1,5 @@
-//! `turnprint stream --fleet --verify`: a robot's cross-robot candidates
-//! verified on the keyframes of both robots.
+//! `turnprint stream --fleet [--verify]`: one robot of a fleet, its
+//! cross-robot candidates verified on the keyframes of both robots.
 //!
 //! Every robot renders its own keyframes (the built-in test world along
 //! `--world`, the path every robot's truth lies on, seen from its own
@@ -12,9 +12,18 @@
 //! `stream --verify` does.
 
 use std::collections::{HashMap, HashSet};
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::time::Duration;
 
 use serde_json::{json, Value};
+use turnprint::io::Format;
+use turnprint::online::OnlineConfig;
+use turnprint::Trajectory;
+use turnprint_fleet::StreamError;
+
+use crate::input::read;
 
 use turnprint_fleet::keyframe::Keyframe;
 use turnprint_fleet::transport::KeyframeSource;
@@ -23,7 +32,63 @@ use turnprint_fleet::CrossCandidate;
 use turnprint_ipc::client::{Outcome, VerifierClient};
 use turnprint_ipc::payload::CameraParams;
 
-use crate::keyframes::{candidate, ending, verdict, Renderer, Sidecar};
+use crate::keyframes::{candidate, ending, start_verifier, verdict, Renderer, Sidecar};
+use crate::sidecar::{CameraKind, VerifyOptions};
+
+/// What `stream --fleet --verify` reads besides the path.
+#[derive(Debug, Clone)]
+pub struct Files {
+    /// The true poses this robot's keyframes are rendered from (default:
+    /// the path itself).
+    pub truth: Option<PathBuf>,
+    /// The path the test world is built along (default: the truth).
+    pub world: Option<PathBuf>,
+    /// The cameras, comma-separated (`pinhole,fisheye,omni`).
+    pub cameras: String,
+}
+
+/// Streams path `a` as one robot of the fleet `options` names, writing JSON
+/// Lines to `out`; with `verify`, every candidate is verified on keyframes.
+pub fn stream(
+    a: &Path,
+    format: Format,
+    topic: Option<&str>,
+    config: &OnlineConfig,
+    options: &turnprint_fleet::Options,
+    verify: Option<Files>,
+    out: &mut dyn Write,
+) -> Result<(), StreamError> {
+    let read =
+        |p: &Path, format| read(p, format, topic).map_err(|e| StreamError::Message(e.to_string()));
+    let trajectory = read(a, format)?;
+    let name = a.display().to_string();
+    let result = match verify {
+        None => turnprint_fleet::stream(&trajectory, &name, config, options, out),
+        Some(files) => {
+            let truth = match &files.truth {
+                Some(t) => read(t, Format::Auto)?,
+                None => trajectory.clone(),
+            };
+            let world = files
+                .world
+                .as_deref()
+                .map(|w| read(w, Format::Auto))
+                .transpose()?;
+            let mut verifier =
+                FleetVerifier::start(&trajectory, &truth, world.as_ref(), &files.cameras)
+                    .map_err(|e| StreamError::Message(format!("{name}: {e}")))?;
+            turnprint_fleet::stream_verified(
+                &trajectory,
+                &name,
+                config,
+                options,
+                &mut verifier,
+                out,
+            )
+        }
+    };
+    result.map(|_| ())
+}
 
 /// Verifier ids of other robots' keyframes have this bit set (this robot's
 /// own are their pose indices), then the robot's number (in the order
@@ -65,6 +130,32 @@ pub struct FleetVerifier {
 }
 
 impl FleetVerifier {
+    /// The verifier of the robot driving `input`: its keyframes rendered
+    /// from `truth` in the world built along `world` (default: the truth)
+    /// with the cameras `cameras` (comma-separated names), and a verifier
+    /// sidecar started and ready.
+    pub fn start(
+        input: &Trajectory,
+        truth: &Trajectory,
+        world: Option<&Trajectory>,
+        cameras: &str,
+    ) -> Result<FleetVerifier, String> {
+        let cameras = cameras
+            .split(',')
+            .map(CameraKind::parse)
+            .collect::<Result<Vec<_>, _>>()?;
+        let options = VerifyOptions {
+            cameras,
+            ..VerifyOptions::default()
+        };
+        let renderer = Renderer::new(input, truth, world, &options)?;
+        let (sidecar, mut client, _) = start_verifier(&options).map_err(|e| e.to_string())?;
+        if !client.wait_for_verifier(Duration::from_secs(20)) {
+            return Err("the verifier sidecar did not come up".into());
+        }
+        Ok(FleetVerifier::new(renderer, sidecar, client))
+    }
+
     /// A verifier over `renderer`'s keyframes with a started sidecar.
     pub fn new(renderer: Renderer, sidecar: Sidecar, client: VerifierClient) -> FleetVerifier {
         FleetVerifier {

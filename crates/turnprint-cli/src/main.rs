@@ -208,8 +208,7 @@ enum Command {
         #[arg(long, value_name = "S", requires = "fleet", default_value_t = 0.0, value_parser = non_negative_seconds)]
         linger: f64,
         /// With --fleet --verify: the path the test world is built along,
-        /// one for every robot of the fleet (each robot's --truth lies on
-        /// it); default: this robot's truth.
+        /// one for the whole fleet; default: this robot's truth.
         #[arg(long, value_name = "PATH", requires_all = ["verify", "fleet"])]
         world: Option<PathBuf>,
     },
@@ -353,11 +352,13 @@ fn main() -> ExitCode {
             if let Some(options) = fleet {
                 if correct.is_some() || plot.is_some() || a == Path::new("-") {
                     Err("stream --fleet replays a file: give it a path, without --correct or --plot".into())
-                } else if verify {
-                    let files = FleetFiles { truth, world };
-                    run_stream_fleet_verified(&a, &config, format, &options, files, &cameras)
                 } else {
-                    run_stream_fleet(&a, &config, format, &options)
+                    let files = verify.then_some(turnprint_cli::fleet_verify::Files {
+                        truth,
+                        world,
+                        cameras,
+                    });
+                    run_stream_fleet(&a, &config, format, &options, files)
                 }
             } else if verify && a == Path::new("-") {
                 Err(
@@ -903,75 +904,12 @@ fn run_stream_fleet(
     config: &turnprint::online::OnlineConfig,
     format: Format,
     options: &turnprint_fleet::Options,
+    verify: Option<turnprint_cli::fleet_verify::Files>,
 ) -> Result<(), Failure> {
-    let trajectory = read(a, format)?;
+    let topic = TOPIC.get().and_then(|t| t.as_deref());
     let mut out = std::io::stdout().lock();
-    let name = a.display().to_string();
-    match turnprint_fleet::stream(&trajectory, &name, config, options, &mut out) {
-        Ok(_) => Ok(()),
-        Err(turnprint_fleet::StreamError::OutputClosed) => Err(Failure::StdoutClosed),
-        Err(turnprint_fleet::StreamError::Message(m)) => Err(Failure::Message(m)),
-    }
-}
-
-/// The files `stream --fleet --verify` reads besides the path.
-struct FleetFiles {
-    /// The true poses this robot's keyframes are rendered from.
-    truth: Option<PathBuf>,
-    /// The path the test world is built along.
-    world: Option<PathBuf>,
-}
-
-fn run_stream_fleet_verified(
-    a: &Path,
-    config: &turnprint::online::OnlineConfig,
-    format: Format,
-    options: &turnprint_fleet::Options,
-    files: FleetFiles,
-    cameras: &str,
-) -> Result<(), Failure> {
-    use turnprint_cli::fleet_verify::FleetVerifier;
-    use turnprint_cli::keyframes::{start_verifier, Renderer};
-    use turnprint_cli::sidecar::{CameraKind, VerifyOptions};
-    let trajectory = read(a, format)?;
-    let name = a.display().to_string();
-    let truth = match &files.truth {
-        Some(t) => read(t, Format::Auto)?,
-        None => trajectory.clone(),
-    };
-    let world = files
-        .world
-        .as_deref()
-        .map(|w| read(w, Format::Auto))
-        .transpose()?;
-    let cameras = cameras
-        .split(',')
-        .map(CameraKind::parse)
-        .collect::<Result<Vec<_>, _>>()?;
-    let verify = VerifyOptions {
-        truth: files.truth,
-        cameras,
-        ..VerifyOptions::default()
-    };
-    let renderer = Renderer::new(&trajectory, &truth, world.as_ref(), &verify)
-        .map_err(|e| Failure::Message(format!("{name}: {e}")))?;
-    let (sidecar, mut client, _) = start_verifier(&verify)?;
-    if !client.wait_for_verifier(std::time::Duration::from_secs(20)) {
-        return Err(Failure::Message(
-            "the verifier sidecar did not come up".into(),
-        ));
-    }
-    let mut verifier = FleetVerifier::new(renderer, sidecar, client);
-    let mut out = std::io::stdout().lock();
-    match turnprint_fleet::stream_verified(
-        &trajectory,
-        &name,
-        config,
-        options,
-        &mut verifier,
-        &mut out,
-    ) {
-        Ok(_) => Ok(()),
+    match turnprint_cli::fleet_verify::stream(a, format, topic, config, options, verify, &mut out) {
+        Ok(()) => Ok(()),
         Err(turnprint_fleet::StreamError::OutputClosed) => Err(Failure::StdoutClosed),
         Err(turnprint_fleet::StreamError::Message(m)) => Err(Failure::Message(m)),
     }
