@@ -140,10 +140,7 @@ impl FleetVerifier {
         world: Option<&Trajectory>,
         cameras: &str,
     ) -> Result<FleetVerifier, String> {
-        let cameras = cameras
-            .split(',')
-            .map(CameraKind::parse)
-            .collect::<Result<Vec<_>, _>>()?;
+        let cameras = CameraKind::parse_list(cameras)?;
         let options = VerifyOptions {
             cameras,
             ..VerifyOptions::default()
@@ -237,7 +234,7 @@ impl Verification for FleetVerifier {
     }
 
     fn submit(&mut self, id: u64, c: &CrossCandidate, theirs: Keyframe) -> Option<Value> {
-        let (q, m) = verified_at(c);
+        let (q, m) = verified_at(&c.hypothesis);
         let own = self.renderer.snap(q) as u64;
         let foreign = self.foreign_id(&c.robot, theirs.pose);
         let h = &c.hypothesis;
@@ -284,11 +281,7 @@ impl Verification for FleetVerifier {
     }
 
     fn submit_own(&mut self, id: u64, h: &turnprint::Hypothesis) -> Option<Value> {
-        let (q, m) = h
-            .correspondences
-            .get(h.correspondences.len() / 2)
-            .copied()
-            .unwrap_or((h.a_range[0], h.b_range[0]));
+        let (q, m) = verified_at(h);
         let keyframes = [self.renderer.snap(q) as u64, self.renderer.snap(m) as u64];
         let open = Open {
             id,

@@ -939,10 +939,7 @@ fn run_stream_verified(
         plot,
         correct,
     } = files;
-    let cameras = cameras
-        .split(',')
-        .map(CameraKind::parse)
-        .collect::<Result<Vec<_>, _>>()?;
+    let cameras = CameraKind::parse_list(cameras)?;
     let options = VerifyOptions {
         truth,
         cameras,

@@ -93,6 +93,11 @@ impl CameraKind {
         }
     }
 
+    /// Parses a comma-separated list (`pinhole,fisheye,omni`).
+    pub fn parse_list(s: &str) -> std::result::Result<Vec<CameraKind>, String> {
+        s.split(',').map(CameraKind::parse).collect()
+    }
+
     /// Its name.
     pub fn name(self) -> &'static str {
         match self {

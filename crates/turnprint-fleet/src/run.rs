@@ -17,15 +17,15 @@ use std::time::{Duration, Instant};
 use crossbeam::channel::{select, unbounded, Receiver, Sender};
 use serde_json::{json, Value};
 use turnprint::online::frontend::Outbox;
-use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput, TrackParams};
+use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, TrackParams};
 use turnprint::pipeline::prepare::MIN_POSES;
 use turnprint::Trajectory;
 
 use crate::fleet::{CrossCandidate, Fleet, Received};
 use crate::history::Encoder;
 use crate::payload::{Chunk, FrameInfo};
-use crate::transport::{Endpoints, Incoming, Transport, KEYFRAME_TIMEOUT};
-use crate::verify::{ended, fetcher, Fetched, RefusedKeyframes, Request, Verification};
+use crate::transport::{Endpoints, Incoming, Transport};
+use crate::verify::{Verification, Verifying};
 
 /// How often a robot publishes its status, and the least time between two
 /// catch-up queries to one robot: a missed chunk is noticed within about
@@ -94,6 +94,11 @@ fn output_error(e: std::io::Error) -> StreamError {
     }
 }
 
+/// Writes one event as a JSON line.
+fn write(out: &mut dyn Write, v: &Value) -> Result<(), StreamError> {
+    writeln!(out, "{v}").map_err(output_error)
+}
+
 /// Sets `stop` when dropped: the threads of a stream that ends early
 /// (its output closed) end with it.
 struct StopOnDrop(Arc<AtomicBool>);
@@ -103,11 +108,6 @@ impl Drop for StopOnDrop {
         self.0.store(true, Ordering::Relaxed);
     }
 }
-
-/// How long, after the cross-robot candidates stop, the stream waits for
-/// their verdicts at most: a keyframe fetch and the verifier's own expiry
-/// (which ends every candidate it holds) with room to spare.
-const VERDICT_WAIT: Duration = Duration::from_secs(20);
 
 /// Streams `trajectory` (named `name`) as robot `options.robot` of the
 /// fleet and writes JSON Lines to `out`; returns the summary.
@@ -133,47 +133,6 @@ pub fn stream_verified(
     out: &mut dyn Write,
 ) -> Result<Value, StreamError> {
     run(trajectory, name, config, options, Some(verification), out)
-}
-
-/// The cross-robot candidates' verification while the stream runs.
-struct Verifying<'a> {
-    verification: &'a mut dyn Verification,
-    requests: Option<crossbeam::channel::Sender<Request>>,
-    answers: Receiver<Fetched>,
-    fetcher: Option<JoinHandle<()>>,
-    /// Requests sent and not yet answered.
-    fetching: usize,
-    refused: Arc<RefusedKeyframes>,
-}
-
-impl Verifying<'_> {
-    /// Asks for the other robot's keyframe of candidate `id`.
-    fn request(&mut self, id: u64, candidate: CrossCandidate) {
-        if let Some(tx) = &self.requests {
-            if tx.send(Request { id, candidate }).is_ok() {
-                self.fetching += 1;
-            }
-        }
-    }
-
-    /// The events of keyframes fetched and verdicts arrived since the last call.
-    fn events(&mut self) -> Vec<Value> {
-        let mut events = Vec::new();
-        for f in self.answers.try_iter() {
-            self.fetching -= 1;
-            let Request { id, candidate } = f.request;
-            match f.keyframe {
-                Ok(k) => events.extend(self.verification.submit(id, &candidate, k)),
-                Err(why) => events.push(ended("expired", id, &candidate, json!({"reason": why}))),
-            }
-        }
-        events.extend(self.verification.poll());
-        events
-    }
-
-    fn done(&self) -> bool {
-        self.fetching == 0 && self.verification.open() == 0
-    }
 }
 
 fn run(
@@ -214,19 +173,7 @@ fn run(
     // Late joiner or not: whatever the others have published so far.
     transport.catch_up("*");
     let mut verifying = match verification {
-        Some(v) => {
-            transport.serve_keyframes(v.source())?;
-            let refused = Arc::new(RefusedKeyframes::default());
-            let (tx, answers, thread) = fetcher(transport.clone(), refused.clone());
-            Some(Verifying {
-                verification: v,
-                requests: Some(tx),
-                answers,
-                fetcher: Some(thread),
-                fetching: 0,
-                refused,
-            })
-        }
+        Some(v) => Some(Verifying::start(&transport, v)?),
         None => None,
     };
     let mut next_id = 0u64;
@@ -238,9 +185,26 @@ fn run(
             o.insert("id".into(), json!(id));
         }
         if let Some(v) = verifying.as_mut() {
-            v.request(id, c);
+            v.cross(id, c);
         }
         event
+    };
+    // The robot's own candidates, handed to the verification too.
+    let own_event = |e: &CandidateEvent,
+                     verifying: &mut Option<Verifying>,
+                     out: &mut dyn Write|
+     -> Result<(), StreamError> {
+        write(out, &e.to_json())?;
+        match verifying.as_mut().and_then(|v| v.own(e)) {
+            Some(ended) => write(out, &ended),
+            None => Ok(()),
+        }
+    };
+    // The endings of the verifications.
+    let verdicts = |verifying: &mut Option<Verifying>, out: &mut dyn Write| {
+        verifying.as_mut().map_or(Ok(()), |v| {
+            v.events().iter().try_for_each(|e| write(out, e))
+        })
     };
     let stop = Arc::new(AtomicBool::new(false));
     let _stop_on_drop = StopOnDrop(stop.clone());
@@ -256,9 +220,6 @@ fn run(
                 matching(fleet, own_rx, in_rx, cand_tx, &transport, &stop)
             })
             .map_err(|e| format!("starting the matching thread: {e}"))?
-    };
-    let write = |out: &mut dyn Write, v: &Value| -> Result<(), StreamError> {
-        writeln!(out, "{v}").map_err(output_error)
     };
     let mut detector = Detector::new(config.clone(), Overflow::Block);
     let tap = detector.tap_finalised();
@@ -287,34 +248,20 @@ fn run(
             publisher.publish(detector.params(), detector.poses(), false)?;
         }
         for e in detector.poll() {
-            write(out, &e.to_json())?;
-            if let Some(v) = verifying.as_mut() {
-                if let Some(ended) = v.verification.submit_own(e.id, &e.hypothesis) {
-                    write(out, &ended)?;
-                }
-            }
+            own_event(&e, &mut verifying, out)?;
         }
         for c in cand_rx.try_iter() {
             cross += 1;
             write(out, &cross_event(c, &mut verifying))?;
         }
-        if let Some(v) = verifying.as_mut() {
-            for e in v.events() {
-                write(out, &e)?;
-            }
-        }
+        verdicts(&mut verifying, out)?;
     }
     let (params, poses) = (detector.params(), detector.poses());
     let (rest, summary) = detector.finish();
     publisher.take(&tap);
     publisher.publish(params, poses, true)?;
     for e in rest {
-        write(out, &e.to_json())?;
-        if let Some(v) = verifying.as_mut() {
-            if let Some(ended) = v.verification.submit_own(e.id, &e.hypothesis) {
-                write(out, &ended)?;
-            }
-        }
+        own_event(&e, &mut verifying, out)?;
     }
     let linger_end = Instant::now() + Duration::from_secs_f64(options.linger);
     loop {
@@ -326,11 +273,7 @@ fn run(
             cross += 1;
             write(out, &cross_event(c, &mut verifying))?;
         }
-        if let Some(v) = verifying.as_mut() {
-            for e in v.events() {
-                write(out, &e)?;
-            }
-        }
+        verdicts(&mut verifying, out)?;
     }
     stop.store(true, Ordering::Relaxed);
     let _ = status.join();
@@ -341,42 +284,10 @@ fn run(
         cross += 1;
         write(out, &cross_event(c, &mut verifying))?;
     }
-    // Every cross-robot candidate ends: its keyframe fetched or not, its
-    // verdict in or expired.
+    // Every candidate ends: its keyframe fetched or not, its verdict in or
+    // expired.
     let verified = match verifying.as_mut() {
-        Some(v) => {
-            v.requests = None;
-            let deadline = Instant::now() + KEYFRAME_TIMEOUT + VERDICT_WAIT;
-            while !v.done() && Instant::now() < deadline {
-                for e in v.events() {
-                    write(out, &e)?;
-                }
-                std::thread::sleep(IDLE);
-            }
-            if let Some(t) = v.fetcher.take() {
-                let _ = t.join();
-            }
-            for e in v.events() {
-                write(out, &e)?;
-            }
-            for e in v
-                .verification
-                .expire_all("the stream ended before its verdict")
-            {
-                write(out, &e)?;
-            }
-            let mut s = v.verification.summary();
-            if let Some(o) = s.as_object_mut() {
-                o.insert(
-                    "refused_keyframes".into(),
-                    json!({
-                        "garbage": v.refused.garbage.load(Ordering::Relaxed),
-                        "version": v.refused.version.load(Ordering::Relaxed),
-                    }),
-                );
-            }
-            Some(s)
-        }
+        Some(v) => Some(v.finish(&mut |e| write(out, e))?),
         None => None,
     };
     let sent = &transport.sent;

@@ -10,17 +10,21 @@
 //! own loop candidates are verified as `stream --verify` does, on its own
 //! keyframes.
 
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use crossbeam::channel::{unbounded, Receiver, Sender};
 use serde_json::Value;
 
-use crate::fleet::CrossCandidate;
+use std::time::{Duration, Instant};
+
+use serde_json::json;
+use turnprint::online::CandidateEvent;
+
+use crate::fleet::{CrossCandidate, Refused};
 use crate::keyframe::Keyframe;
 use crate::payload::Refusal;
-use crate::transport::{KeyframeSource, Transport};
+use crate::transport::{KeyframeSource, Transport, KEYFRAME_TIMEOUT};
 
 /// What verifies cross-robot candidates on images.
 pub trait Verification {
@@ -57,21 +61,13 @@ pub struct Fetched {
     pub request: Request,
     /// The other robot's keyframe, or why it could not be had.
     pub keyframe: Result<Keyframe, String>,
+    /// Why the keyframe the other robot sent was refused, when it was.
+    pub refused: Option<Refusal>,
 }
 
-/// Keyframes the other robots sent that were refused, by reason.
-#[derive(Debug, Default)]
-pub struct RefusedKeyframes {
-    /// Not a keyframe of ours, cut short or inconsistent.
-    pub garbage: AtomicU64,
-    /// A newer payload version.
-    pub version: AtomicU64,
-}
-
-/// The pose pair a candidate is verified at: its middle correspondence
+/// The pose pair a hypothesis is verified at: its middle correspondence
 /// (this robot's pose, the other's), or its ranges' starts without any.
-pub fn verified_at(c: &CrossCandidate) -> (usize, usize) {
-    let h = &c.hypothesis;
+pub fn verified_at(h: &turnprint::Hypothesis) -> (usize, usize) {
     h.correspondences
         .get(h.correspondences.len() / 2)
         .copied()
@@ -80,27 +76,29 @@ pub fn verified_at(c: &CrossCandidate) -> (usize, usize) {
 
 /// Starts the thread that fetches the other robots' keyframes: requests in,
 /// answers out, until the request side is dropped.
-pub fn fetcher(
-    transport: Arc<Transport>,
-    refused: Arc<RefusedKeyframes>,
-) -> (Sender<Request>, Receiver<Fetched>, JoinHandle<()>) {
+pub fn fetcher(transport: Arc<Transport>) -> (Sender<Request>, Receiver<Fetched>, JoinHandle<()>) {
     let (tx, requests) = unbounded::<Request>();
     let (answers, rx) = unbounded();
     let thread = std::thread::spawn(move || {
         for request in requests {
             let robot = request.candidate.robot.clone();
-            let theirs = verified_at(&request.candidate).1 as u64;
-            let keyframe = transport.fetch_keyframe(&robot, theirs).and_then(|bytes| {
-                Keyframe::decode(&bytes).map_err(|e| {
-                    let counter = match e {
-                        Refusal::Garbage(_) => &refused.garbage,
-                        Refusal::Version(_) => &refused.version,
-                    };
-                    counter.fetch_add(1, Ordering::Relaxed);
-                    format!("{robot}'s keyframe {theirs} refused: {e}")
-                })
-            });
-            if answers.send(Fetched { request, keyframe }).is_err() {
+            let theirs = verified_at(&request.candidate.hypothesis).1 as u64;
+            let (keyframe, refused) = match transport.fetch_keyframe(&robot, theirs) {
+                Err(why) => (Err(why), None),
+                Ok(bytes) => match Keyframe::decode(&bytes) {
+                    Ok(k) => (Ok(k), None),
+                    Err(e) => (
+                        Err(format!("{robot}'s keyframe {theirs} refused: {e}")),
+                        Some(e),
+                    ),
+                },
+            };
+            let answer = Fetched {
+                request,
+                keyframe,
+                refused,
+            };
+            if answers.send(answer).is_err() {
                 return;
             }
         }
@@ -123,4 +121,109 @@ pub fn ended(kind: &str, id: u64, c: &CrossCandidate, extra: Value) -> Value {
         o.extend(e);
     }
     v
+}
+
+/// How long, after the candidates stop, a stream waits for their verdicts
+/// at most: a keyframe fetch and the verifier's own expiry (which ends
+/// every candidate it holds) with room to spare.
+const VERDICT_WAIT: Duration = Duration::from_secs(20);
+
+/// How often the wait for the last verdicts looks for them.
+const POLL: Duration = Duration::from_millis(50);
+
+/// A stream's verification while it runs: this robot's keyframes served,
+/// the other robots' fetched, every candidate handed to `verification`.
+pub struct Verifying<'a> {
+    verification: &'a mut dyn Verification,
+    requests: Option<Sender<Request>>,
+    answers: Receiver<Fetched>,
+    fetcher: Option<JoinHandle<()>>,
+    /// Requests sent and not yet answered.
+    fetching: usize,
+    /// Keyframes the other robots sent that were refused, by reason.
+    refused: Refused,
+}
+
+impl<'a> Verifying<'a> {
+    /// Serves this robot's keyframes over `transport` and starts fetching
+    /// the others'.
+    pub fn start(
+        transport: &Arc<Transport>,
+        verification: &'a mut dyn Verification,
+    ) -> Result<Verifying<'a>, String> {
+        transport.serve_keyframes(verification.source())?;
+        let (requests, answers, thread) = fetcher(transport.clone());
+        Ok(Verifying {
+            verification,
+            requests: Some(requests),
+            answers,
+            fetcher: Some(thread),
+            fetching: 0,
+            refused: Refused::default(),
+        })
+    }
+
+    /// Asks for the other robot's keyframe of cross-robot candidate `id`.
+    pub fn cross(&mut self, id: u64, candidate: CrossCandidate) {
+        if let Some(tx) = &self.requests {
+            if tx.send(Request { id, candidate }).is_ok() {
+                self.fetching += 1;
+            }
+        }
+    }
+
+    /// Hands this robot's own candidate over: its ending when it cannot be
+    /// verified.
+    pub fn own(&mut self, e: &CandidateEvent) -> Option<Value> {
+        self.verification.submit_own(e.id, &e.hypothesis)
+    }
+
+    /// The events of the keyframes fetched and the verdicts arrived since
+    /// the last call.
+    pub fn events(&mut self) -> Vec<Value> {
+        let mut events = Vec::new();
+        for f in self.answers.try_iter() {
+            self.fetching -= 1;
+            match f.refused {
+                Some(Refusal::Garbage(_)) => self.refused.garbage += 1,
+                Some(Refusal::Version(_)) => self.refused.version += 1,
+                None => {}
+            }
+            let Request { id, candidate } = f.request;
+            match f.keyframe {
+                Ok(k) => events.extend(self.verification.submit(id, &candidate, k)),
+                Err(why) => events.push(ended("expired", id, &candidate, json!({"reason": why}))),
+            }
+        }
+        events.extend(self.verification.poll());
+        events
+    }
+
+    /// Waits until every candidate has ended (at most the fetch timeout and
+    /// [`VERDICT_WAIT`]), writing their events with `write`, and expires
+    /// those still open; the summary's counts.
+    pub fn finish<E>(
+        &mut self,
+        write: &mut dyn FnMut(&Value) -> Result<(), E>,
+    ) -> Result<Value, E> {
+        self.requests = None;
+        let deadline = Instant::now() + KEYFRAME_TIMEOUT + VERDICT_WAIT;
+        while (self.fetching > 0 || self.verification.open() > 0) && Instant::now() < deadline {
+            self.events().iter().try_for_each(&mut *write)?;
+            std::thread::sleep(POLL);
+        }
+        if let Some(t) = self.fetcher.take() {
+            let _ = t.join();
+        }
+        self.events().iter().try_for_each(&mut *write)?;
+        self.verification
+            .expire_all("the stream ended before its verdict")
+            .iter()
+            .try_for_each(&mut *write)?;
+        let mut summary = self.verification.summary();
+        if let Some(o) = summary.as_object_mut() {
+            o.insert("refused_keyframes".into(), json!(self.refused));
+        }
+        Ok(summary)
+    }
 }

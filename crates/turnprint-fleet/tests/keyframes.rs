@@ -10,9 +10,10 @@ use std::time::{Duration, Instant};
 use nalgebra::{Matrix3, Vector3};
 use turnprint::Hypothesis;
 use turnprint_fleet::keyframe::Keyframe;
+use turnprint_fleet::payload::Refusal;
 use turnprint_fleet::payload::VERSION;
 use turnprint_fleet::transport::{KeyframeSource, Transport, KEYFRAME_TIMEOUT};
-use turnprint_fleet::verify::{fetcher, RefusedKeyframes, Request};
+use turnprint_fleet::verify::{fetcher, Request};
 use turnprint_fleet::{CrossCandidate, Endpoints};
 
 fn free_port() -> u16 {
@@ -118,8 +119,7 @@ fn garbage_and_a_newer_version_are_refused_and_counted() {
     });
     let (a, _b) = pair(&format!("kf-garbage-{}", std::process::id()), source);
     fetch_until_connected(&a, 30).expect("the session connects");
-    let refused = Arc::new(RefusedKeyframes::default());
-    let (requests, answers, thread) = fetcher(a.clone(), refused.clone());
+    let (requests, answers, thread) = fetcher(a.clone());
     for (id, theirs) in [(0, 1), (1, 2), (2, 30)] {
         requests
             .send(Request {
@@ -147,8 +147,12 @@ fn garbage_and_a_newer_version_are_refused_and_counted() {
             _ => assert_eq!(f.keyframe.as_ref().ok(), Some(&keyframe(30))),
         }
     }
-    assert_eq!(refused.garbage.load(Ordering::Relaxed), 1);
-    assert_eq!(refused.version.load(Ordering::Relaxed), 1);
+    let refusals: Vec<_> = got.iter().map(|f| f.refused.clone()).collect();
+    assert_eq!(refusals.iter().flatten().count(), 2);
+    assert!(refusals
+        .iter()
+        .any(|r| matches!(r, Some(Refusal::Garbage(_)))));
+    assert!(refusals.contains(&Some(Refusal::Version(VERSION + 1))));
 }
 
 #[test]
