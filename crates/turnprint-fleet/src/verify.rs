@@ -200,7 +200,7 @@ impl<'a> Verifying<'a> {
     }
 
     /// Waits until every candidate has ended (at most the fetch timeout and
-    /// [`VERDICT_WAIT`]), writing their events with `write`, and expires
+    /// 20 s more), writing their events with `write`, and expires
     /// those still open; the summary's counts.
     pub fn finish<E>(
         &mut self,
