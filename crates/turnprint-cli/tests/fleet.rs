@@ -852,6 +852,23 @@ fn cross_robot_candidates_are_verified_on_both_robots_keyframes() {
             assert!(e["inliers"].as_u64().is_some_and(|n| n > 0), "{e}");
             confirmed_true += usize::from(cross(&e) && truly_shared(e, own, other));
         }
+        // A confirmed cross candidate leads the estimate of the other robot,
+        // and it is placed right.
+        let confirmed = ids(&["confirmed"], &cross);
+        if !confirmed.is_empty() {
+            let estimate = &summary["robots"][&other.name];
+            assert!(
+                estimate["confirmed"].as_u64().is_some_and(|n| n > 0),
+                "{estimate}"
+            );
+            let placed = placement(summary, own, other);
+            assert!(
+                matches!(placed, Placed::Shared(e) if e < MAX_ERROR),
+                "{} placed {}: {placed:?}",
+                own.name,
+                other.name
+            );
+        }
         let v = &summary["verify"];
         assert_eq!(
             v["submitted"].as_u64(),

@@ -70,6 +70,8 @@ pub const MAX_HYPOTHESES: usize = 512;
 pub struct CrossCandidate {
     /// The other robot.
     pub robot: String,
+    /// The other robot's session when it was found.
+    pub epoch: u64,
     /// This robot's poses pushed when it was found.
     pub at_pose: usize,
     /// The overlap and its similarity.
@@ -123,6 +125,8 @@ struct Peer {
     whole_done: usize,
     found: Vec<Hypothesis>,
     emitted: Vec<Hypothesis>,
+    /// Hypotheses the verifier confirmed on both robots' keyframes.
+    confirmed: Vec<Hypothesis>,
     ended: bool,
     /// The hypotheses of the final sweep, once both paths have ended (or
     /// the robot stops), and the segments it saw.
@@ -144,6 +148,7 @@ impl Peer {
             whole_done: 0,
             found: Vec::new(),
             emitted: Vec::new(),
+            confirmed: Vec::new(),
             ended: false,
             settled: None,
             started_at: 0,
@@ -418,6 +423,7 @@ impl Fleet {
                     peer.emitted.push(held.clone());
                     out.push(CrossCandidate {
                         robot: robot.clone(),
+                        epoch: peer.epoch,
                         at_pose,
                         hypothesis: h,
                     });
@@ -429,6 +435,21 @@ impl Fleet {
         out
     }
 
+    /// Takes in a candidate the verifier confirmed on both robots'
+    /// keyframes: the estimate of its robot leads with the placement it
+    /// agrees with ([`estimate`]). A candidate of an earlier session of
+    /// the robot is ignored.
+    pub fn confirm(&mut self, c: &CrossCandidate) {
+        if let Some(peer) = self.peers.get_mut(&c.robot) {
+            if peer.epoch == c.epoch && peer.confirmed.len() < MAX_HYPOTHESES {
+                peer.confirmed.push(Hypothesis {
+                    correspondences: Vec::new(),
+                    ..c.hypothesis.clone()
+                });
+            }
+        }
+    }
+
     /// The best estimate of where each robot heard from lies in this
     /// robot's frame (`None`: not merged).
     pub fn estimates(&self) -> BTreeMap<String, Option<Estimate>> {
@@ -437,7 +458,7 @@ impl Fleet {
             .map(|(r, p)| {
                 let points = p.history.points3(COMPARE_POINTS);
                 let found = p.settled.as_ref().map_or(&p.found, |s| &s.0);
-                (r.clone(), estimate(found, &points))
+                (r.clone(), estimate(found, &p.confirmed, &points))
             })
             .collect()
     }
@@ -466,6 +487,7 @@ impl Fleet {
                         "translation": [s.translation.x, s.translation.y, s.translation.z],
                         "score": e.score,
                         "agreeing": e.agreeing,
+                        "confirmed": e.confirmed,
                     })
                 }
                 None => json!({"merged": false}),
@@ -578,6 +600,8 @@ pub struct Estimate {
     pub score: f64,
     /// Hypotheses found at other places of this robot's path that agree.
     pub agreeing: usize,
+    /// Places of the placement that the verifier confirmed on keyframes.
+    pub confirmed: usize,
 }
 
 /// Whether two pose ranges share a pose.
@@ -623,15 +647,26 @@ fn places<'a>(group: &[&'a Hypothesis]) -> Vec<&'a Hypothesis> {
 
 /// The robust estimate from every hypothesis found for one robot: the
 /// hypotheses grouped by agreement (each with the first better one it
-/// agrees with), the group of the best-scoring one kept. It places the robot when its best scores [`LIVE_STRONG_SCORE`],
-/// or when a hypothesis at another place agrees with it; otherwise the
-/// robot is left out, never forced.
-fn estimate(found: &[Hypothesis], points: &[Vector3<f64>]) -> Option<Estimate> {
-    let mut order: Vec<&Hypothesis> = found.iter().collect();
-    order.sort_by(|x, y| y.score.total_cmp(&x.score));
-    let mut groups: Vec<Vec<&Hypothesis>> = Vec::new();
+/// agrees with). The group of the best-scoring hypothesis is kept unless
+/// the verifier confirmed a hypothesis (`confirmed`): then the best group
+/// holding a confirmed one, placed whatever its score. Unconfirmed, it
+/// places the robot when its best scores [`LIVE_STRONG_SCORE`], or when a
+/// hypothesis at another place agrees with it; otherwise the robot is left
+/// out, never forced.
+fn estimate(
+    found: &[Hypothesis],
+    confirmed: &[Hypothesis],
+    points: &[Vector3<f64>],
+) -> Option<Estimate> {
+    let mut order: Vec<(&Hypothesis, bool)> = found
+        .iter()
+        .map(|h| (h, false))
+        .chain(confirmed.iter().map(|h| (h, true)))
+        .collect();
+    order.sort_by(|x, y| y.0.score.total_cmp(&x.0.score));
+    let mut groups: Vec<Vec<(&Hypothesis, bool)>> = Vec::new();
     for h in order {
-        match groups.iter_mut().find(|g| agree(g[0], h, points)) {
+        match groups.iter_mut().find(|g| agree(g[0].0, h.0, points)) {
             Some(g) => g.push(h),
             None => groups.push(vec![h]),
         }
@@ -639,16 +674,81 @@ fn estimate(found: &[Hypothesis], points: &[Vector3<f64>]) -> Option<Estimate> {
     // The best-scoring hypothesis leads; its group's other places only
     // corroborate. (Summing the places' scores let a look-alike that
     // recurs along a street grid outweigh the true overlap: KITTI 00, 0-1600
-    // against 2800-4500.)
-    let best = groups.into_iter().next()?;
-    let lead = best[0];
-    let agreeing = places(&best).len() - 1;
-    if lead.score < LIVE_STRONG_SCORE && agreeing == 0 {
+    // against 2800-4500.) A confirmation outweighs any score: the
+    // look-alikes the verifier turns away score as high as true overlaps.
+    let chosen = groups
+        .iter()
+        .position(|g| g.iter().any(|&(_, c)| c))
+        .unwrap_or(0);
+    let best: Vec<(&Hypothesis, bool)> = groups.into_iter().nth(chosen)?;
+    let lead = best[0].0;
+    let all: Vec<&Hypothesis> = best.iter().map(|&(h, _)| h).collect();
+    let verified: Vec<&Hypothesis> = best.iter().filter(|&&(_, c)| c).map(|&(h, _)| h).collect();
+    let agreeing = places(&all).len() - 1;
+    let confirmed = places(&verified).len();
+    if lead.score < LIVE_STRONG_SCORE && agreeing == 0 && confirmed == 0 {
         return None;
     }
     Some(Estimate {
         similarity: lead.similarity(),
         score: lead.score,
         agreeing,
+        confirmed,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A hypothesis placing the other robot shifted by `shift` along x.
+    fn placed(score: f64, a: [usize; 2], b: [usize; 2], shift: f64) -> Hypothesis {
+        Hypothesis {
+            rank: 0,
+            score,
+            zncc: 1.0,
+            reversed: false,
+            a_range: a,
+            b_range: b,
+            scale: 1.0,
+            rotation: nalgebra::Matrix3::identity(),
+            translation: Vector3::new(shift, 0.0, 0.0),
+            rmse: 0.0,
+            turning: 1.0,
+            length: 1.0,
+            length_ratio: 1.0,
+            correspondences: Vec::new(),
+        }
+    }
+
+    fn points() -> Vec<Vector3<f64>> {
+        (0..64)
+            .map(|i| Vector3::new(i as f64, (i as f64 * 0.1).sin() * 10.0, 0.0))
+            .collect()
+    }
+
+    /// Regression: a look-alike scoring above the live threshold placed the
+    /// other robot 375 m off although the verifier had confirmed the true
+    /// overlap (KITTI 00 windows 500-2000 and 1800-3300).
+    #[test]
+    fn a_confirmed_overlap_leads_over_a_stronger_unconfirmed_look_alike() {
+        let found = [
+            placed(0.27, [0, 100], [0, 100], 1000.0),
+            placed(0.16, [200, 300], [1300, 1400], 0.0),
+        ];
+        let unverified = estimate(&found, &[], &points()).expect("placed");
+        assert_eq!(unverified.similarity.translation.x, 1000.0);
+        let confirmed = [placed(0.16, [200, 300], [1300, 1400], 0.5)];
+        let verified = estimate(&found, &confirmed, &points()).expect("placed");
+        assert!(verified.similarity.translation.x.abs() < 1.0);
+        assert_eq!(verified.confirmed, 1);
+    }
+
+    /// A weak overlap alone is left out unless the verifier confirmed it.
+    #[test]
+    fn a_weak_overlap_alone_is_placed_only_when_confirmed() {
+        let found = [placed(0.15, [0, 100], [0, 100], 0.0)];
+        assert!(estimate(&found, &[], &points()).is_none());
+        assert!(estimate(&found, &found, &points()).is_some());
+    }
 }

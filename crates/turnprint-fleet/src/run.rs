@@ -277,7 +277,7 @@ fn run(
     }
     stop.store(true, Ordering::Relaxed);
     let _ = status.join();
-    let fleet = matcher
+    let mut fleet = matcher
         .join()
         .map_err(|_| bad("the fleet's matching thread stopped on an internal error"))?;
     for c in cand_rx.try_iter() {
@@ -290,6 +290,15 @@ fn run(
         Some(v) => Some(v.finish(&mut |e| write(out, e))?),
         None => None,
     };
+    // Where the verifier confirmed a cross-robot candidate, the estimate of
+    // that robot leads with it.
+    for c in verifying
+        .as_mut()
+        .map(|v| v.confirmed())
+        .unwrap_or_default()
+    {
+        fleet.confirm(&c);
+    }
     let sent = &transport.sent;
     let mut s = serde_json::to_value(summary).unwrap_or_default();
     if let Some(o) = s.as_object_mut() {

@@ -6,10 +6,12 @@
 //! at the candidate's middle correspondence, on a thread of its own (a
 //! robot that is gone costs a timeout there, never the replay), and hands
 //! the pair to its verifier; every candidate then ends in one `confirmed`,
-//! `rejected` or `expired` event that names the other robot. The robot's
-//! own loop candidates are verified as `stream --verify` does, on its own
-//! keyframes.
+//! `rejected` or `expired` event that names the other robot, and the
+//! confirmed ones lead the robot's estimate of the other's frame
+//! ([`crate::Fleet::confirm`]). The robot's own loop candidates are
+//! verified as `stream --verify` does, on its own keyframes.
 
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
@@ -20,6 +22,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::json;
 use turnprint::online::CandidateEvent;
+use turnprint::Hypothesis;
 
 use crate::fleet::{CrossCandidate, Refused};
 use crate::keyframe::Keyframe;
@@ -142,6 +145,10 @@ pub struct Verifying<'a> {
     fetching: usize,
     /// Keyframes the other robots sent that were refused, by reason.
     refused: Refused,
+    /// Cross-robot candidates handed over and not yet ended, by id.
+    open: HashMap<u64, CrossCandidate>,
+    /// Cross-robot candidates confirmed and not yet taken.
+    confirmed: Vec<CrossCandidate>,
 }
 
 impl<'a> Verifying<'a> {
@@ -160,14 +167,47 @@ impl<'a> Verifying<'a> {
             fetcher: Some(thread),
             fetching: 0,
             refused: Refused::default(),
+            open: HashMap::new(),
+            confirmed: Vec::new(),
         })
     }
 
     /// Asks for the other robot's keyframe of cross-robot candidate `id`.
     pub fn cross(&mut self, id: u64, candidate: CrossCandidate) {
         if let Some(tx) = &self.requests {
+            let kept = CrossCandidate {
+                hypothesis: Hypothesis {
+                    correspondences: Vec::new(),
+                    ..candidate.hypothesis.clone()
+                },
+                ..candidate.clone()
+            };
             if tx.send(Request { id, candidate }).is_ok() {
                 self.fetching += 1;
+                self.open.insert(id, kept);
+            }
+        }
+    }
+
+    /// The cross-robot candidates confirmed since the last call.
+    pub fn confirmed(&mut self) -> Vec<CrossCandidate> {
+        std::mem::take(&mut self.confirmed)
+    }
+
+    /// Notes the ending of a cross-robot candidate among `events`.
+    fn note(&mut self, events: &[Value]) {
+        for e in events {
+            let (Some(kind), Some(id), Some(_)) = (
+                e.get("event").and_then(Value::as_str),
+                e.get("id").and_then(Value::as_u64),
+                e.get("robot"),
+            ) else {
+                continue;
+            };
+            if let Some(c) = self.open.remove(&id) {
+                if kind == "confirmed" {
+                    self.confirmed.push(c);
+                }
             }
         }
     }
@@ -196,6 +236,7 @@ impl<'a> Verifying<'a> {
             }
         }
         events.extend(self.verification.poll());
+        self.note(&events);
         events
     }
 
@@ -216,10 +257,11 @@ impl<'a> Verifying<'a> {
             let _ = t.join();
         }
         self.events().iter().try_for_each(&mut *write)?;
-        self.verification
-            .expire_all("the stream ended before its verdict")
-            .iter()
-            .try_for_each(&mut *write)?;
+        let expired = self
+            .verification
+            .expire_all("the stream ended before its verdict");
+        self.note(&expired);
+        expired.iter().try_for_each(&mut *write)?;
         let mut summary = self.verification.summary();
         if let Some(o) = summary.as_object_mut() {
             o.insert("refused_keyframes".into(), json!(self.refused));

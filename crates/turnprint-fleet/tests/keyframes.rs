@@ -40,6 +40,7 @@ fn keyframe(pose: u64) -> Keyframe {
 fn candidate(robot: &str, theirs: usize) -> CrossCandidate {
     CrossCandidate {
         robot: robot.into(),
+        epoch: 1,
         at_pose: 50,
         hypothesis: Hypothesis {
             rank: 1,
