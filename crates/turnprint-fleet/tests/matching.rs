@@ -345,6 +345,43 @@ fn a_robot_past_its_history_budget_still_places_the_other() {
     assert!(e < 0.03, "b misplaced by {e}");
 }
 
+/// A confirmation of a candidate found in an earlier session of a robot
+/// (before it restarted) is ignored; one of its current session leads the
+/// estimate of that robot.
+#[test]
+fn a_confirmation_from_a_robots_earlier_session_is_ignored() {
+    let (drive, ta, tb, a, b) = whole_and_tail(1, 11, 1400);
+    let (ca, cb) = (chunks(&a, 1), chunks(&b, 2));
+    let mut fleet = Fleet::new("a", 1);
+    let mut found = Vec::new();
+    let n = ca.len().max(cb.len());
+    for i in 0..n {
+        if let Some(c) = ca.get(i) {
+            fleet.own_chunk(c).expect("own chunk");
+        }
+        if let Some(c) = cb.get(i) {
+            fleet.receive("b", &c.encode());
+        }
+        found.extend(fleet.match_new(i + 1 == n));
+    }
+    let right = b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0);
+    assert!(right < 0.03, "b misplaced by {right}");
+    // A candidate moved far off, as if its robot had been confirmed there.
+    let mut off = found.first().expect("a cross candidate").clone();
+    off.hypothesis.translation += Vector3::new(1e4, 0.0, 0.0);
+    off.epoch = 1;
+    fleet.confirm(&off);
+    let stale = b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0);
+    assert_eq!(stale, right, "a stale confirmation moved the estimate");
+    off.epoch = 2;
+    fleet.confirm(&off);
+    assert_eq!(
+        fleet.estimates()["b"].as_ref().map(|e| e.confirmed),
+        Some(1)
+    );
+    assert!(b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0) > 1.0);
+}
+
 /// A peer whose payloads arrive corrupted (bytes flipped, cut short, a
 /// chunk repeated or skipped) after an intact start of its session, to a
 /// robot whose histories are past their budget: every payload is taken in,
