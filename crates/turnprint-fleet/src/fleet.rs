@@ -18,7 +18,7 @@ use nalgebra::Vector3;
 use serde_json::{json, Value};
 use turnprint::geometry::Similarity3;
 use turnprint::online::events::candidate_fields;
-use turnprint::pipeline::placement::{agrees, MIN_OVERLAP_SCORE};
+use turnprint::pipeline::placement::{agrees, AGREEMENT, MIN_OVERLAP_SCORE};
 use turnprint::pipeline::{match_prepared, Config};
 use turnprint::Hypothesis;
 
@@ -125,8 +125,10 @@ struct Peer {
     whole_done: usize,
     found: Vec<Hypothesis>,
     emitted: Vec<Hypothesis>,
-    /// Hypotheses the verifier confirmed on both robots' keyframes.
-    confirmed: Vec<Hypothesis>,
+    /// Hypotheses the verifier confirmed on both robots' keyframes, with
+    /// the place seen (this robot's position, the other's, each in its own
+    /// frame) when both are held.
+    confirmed: Vec<Confirmed>,
     ended: bool,
     /// The hypotheses of the final sweep, once both paths have ended (or
     /// the robot stops), and the segments it saw.
@@ -436,18 +438,35 @@ impl Fleet {
     }
 
     /// Takes in a candidate the verifier confirmed on both robots'
-    /// keyframes: the estimate of its robot leads with the placement it
-    /// agrees with ([`estimate`]). A candidate of an earlier session of
-    /// the robot is ignored.
+    /// keyframes, taken at the candidate's middle correspondence (its first
+    /// correspondence, or its ranges' starts without any): the estimate of
+    /// its robot then leads with a placement that lays those two poses
+    /// together ([`estimate`]). A candidate of an earlier session of the
+    /// robot is ignored.
     pub fn confirm(&mut self, c: &CrossCandidate) {
-        if let Some(peer) = self.peers.get_mut(&c.robot) {
-            if peer.epoch == c.epoch && peer.confirmed.len() < MAX_HYPOTHESES {
-                peer.confirmed.push(Hypothesis {
-                    correspondences: Vec::new(),
-                    ..c.hypothesis.clone()
-                });
-            }
+        let Some(peer) = self.peers.get_mut(&c.robot) else {
+            return;
+        };
+        if peer.epoch != c.epoch || peer.confirmed.len() >= MAX_HYPOTHESES {
+            return;
         }
+        let h = &c.hypothesis;
+        let (own, theirs) = h
+            .correspondences
+            .get(h.correspondences.len() / 2)
+            .copied()
+            .unwrap_or((h.a_range[0], h.b_range[0]));
+        let place = self
+            .own
+            .position_of(own)
+            .zip(peer.history.position_of(theirs));
+        peer.confirmed.push((
+            Hypothesis {
+                correspondences: Vec::new(),
+                ..h.clone()
+            },
+            place,
+        ));
     }
 
     /// The best estimate of where each robot heard from lies in this
@@ -591,6 +610,9 @@ fn sweep(own: &RobotHistory, peer: &RobotHistory, config: &Config) -> (Vec<Hypot
     (found, runs)
 }
 
+/// A confirmed hypothesis and the place its keyframes show.
+type Confirmed = (Hypothesis, Option<(Vector3<f64>, Vector3<f64>)>);
+
 /// A robot's placement in this robot's frame.
 #[derive(Debug, Clone)]
 pub struct Estimate {
@@ -647,26 +669,31 @@ fn places<'a>(group: &[&'a Hypothesis]) -> Vec<&'a Hypothesis> {
 
 /// The robust estimate from every hypothesis found for one robot: the
 /// hypotheses grouped by agreement (each with the first better one it
-/// agrees with). The group of the best-scoring hypothesis is kept unless
-/// the verifier confirmed a hypothesis (`confirmed`): then the best group
-/// holding a confirmed one, placed whatever its score. Unconfirmed, it
-/// places the robot when its best scores [`LIVE_STRONG_SCORE`], or when a
-/// hypothesis at another place agrees with it; otherwise the robot is left
-/// out, never forced.
+/// agrees with), the group of the best-scoring one kept. It places the
+/// robot when its best scores [`LIVE_STRONG_SCORE`], or when a hypothesis
+/// at another place agrees with it; otherwise the robot is left out, never
+/// forced.
+///
+/// Where the verifier confirmed hypotheses (`confirmed`), the best group
+/// whose lead lays a confirmed place's two poses together (within
+/// `placement::AGREEMENT` of the placed extent) is kept instead, whatever
+/// its score: the keyframes vouch for the place, not for the confirmed
+/// fit's similarity, which may be slid along the road (then a better
+/// fit of the same place leads). Without a place (its poses no longer
+/// held), a group holding a confirmed hypothesis is.
 fn estimate(
     found: &[Hypothesis],
-    confirmed: &[Hypothesis],
+    confirmed: &[Confirmed],
     points: &[Vector3<f64>],
 ) -> Option<Estimate> {
-    let mut order: Vec<(&Hypothesis, bool)> = found
+    let mut order: Vec<&Hypothesis> = found
         .iter()
-        .map(|h| (h, false))
-        .chain(confirmed.iter().map(|h| (h, true)))
+        .chain(confirmed.iter().map(|(h, _)| h))
         .collect();
-    order.sort_by(|x, y| y.0.score.total_cmp(&x.0.score));
-    let mut groups: Vec<Vec<(&Hypothesis, bool)>> = Vec::new();
+    order.sort_by(|x, y| y.score.total_cmp(&x.score));
+    let mut groups: Vec<Vec<&Hypothesis>> = Vec::new();
     for h in order {
-        match groups.iter_mut().find(|g| agree(g[0].0, h.0, points)) {
+        match groups.iter_mut().find(|g| agree(g[0], h, points)) {
             Some(g) => g.push(h),
             None => groups.push(vec![h]),
         }
@@ -676,16 +703,38 @@ fn estimate(
     // recurs along a street grid outweigh the true overlap: KITTI 00, 0-1600
     // against 2800-4500.) A confirmation outweighs any score: the
     // look-alikes the verifier turns away score as high as true overlaps.
+    let places_seen: Vec<(Vector3<f64>, Vector3<f64>)> =
+        confirmed.iter().filter_map(|(_, place)| *place).collect();
+    let vouching = |lead: &Hypothesis| {
+        let s = lead.similarity();
+        let placed: Vec<Vector3<f64>> = points.iter().map(|p| s.apply(p)).collect();
+        let near = AGREEMENT * turnprint::geometry::extent(&placed);
+        places_seen
+            .iter()
+            .filter(|(own, theirs)| (s.apply(theirs) - own).norm() <= near)
+            .count()
+    };
+    let holds_confirmed = |g: &[&Hypothesis]| {
+        g.iter()
+            .any(|h| confirmed.iter().any(|(c, _)| std::ptr::eq(c, *h)))
+    };
     let chosen = groups
         .iter()
-        .position(|g| g.iter().any(|&(_, c)| c))
+        .position(|g| vouching(g[0]) > 0)
+        .or_else(|| {
+            places_seen
+                .is_empty()
+                .then(|| groups.iter().position(|g| holds_confirmed(g)))
+                .flatten()
+        })
         .unwrap_or(0);
-    let best: Vec<(&Hypothesis, bool)> = groups.into_iter().nth(chosen)?;
-    let lead = best[0].0;
-    let all: Vec<&Hypothesis> = best.iter().map(|&(h, _)| h).collect();
-    let verified: Vec<&Hypothesis> = best.iter().filter(|&&(_, c)| c).map(|&(h, _)| h).collect();
-    let agreeing = places(&all).len() - 1;
-    let confirmed = places(&verified).len();
+    let best = groups.into_iter().nth(chosen)?;
+    let lead = best[0];
+    let agreeing = places(&best).len() - 1;
+    let confirmed = match places_seen.is_empty() {
+        false => vouching(lead),
+        true => usize::from(holds_confirmed(&best)),
+    };
     if lead.score < LIVE_STRONG_SCORE && agreeing == 0 && confirmed == 0 {
         return None;
     }
@@ -738,17 +787,36 @@ mod tests {
         ];
         let unverified = estimate(&found, &[], &points()).expect("placed");
         assert_eq!(unverified.similarity.translation.x, 1000.0);
-        let confirmed = [placed(0.16, [200, 300], [1300, 1400], 0.5)];
+        let p = points()[20];
+        let confirmed = [(placed(0.16, [200, 300], [1300, 1400], 0.5), Some((p, p)))];
         let verified = estimate(&found, &confirmed, &points()).expect("placed");
         assert!(verified.similarity.translation.x.abs() < 1.0);
         assert_eq!(verified.confirmed, 1);
     }
 
-    /// A weak overlap alone is left out unless the verifier confirmed it.
+    /// Regression: a confirmed candidate whose fit was turned about its
+    /// keyframes' place (right place, wrong similarity) displaced a better
+    /// fit of the same place that scored higher (KITTI 00 2800-4500 against
+    /// 0-1600, 153 m off).
+    #[test]
+    fn a_better_fit_of_the_confirmed_place_leads_over_the_confirmed_fit() {
+        let p = points()[32];
+        let rotation = nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), 0.5);
+        let mut turned = placed(0.21, [600, 900], [400, 800], 0.0);
+        turned.rotation = *rotation.matrix();
+        turned.translation = p - rotation * p;
+        let found = [placed(0.37, [600, 900], [400, 800], 0.0)];
+        let estimate = estimate(&found, &[(turned, Some((p, p)))], &points()).expect("placed");
+        assert_eq!(estimate.similarity.translation, Vector3::zeros());
+        assert_eq!(estimate.confirmed, 1);
+    }
+
+    /// A weak overlap alone is left out unless the verifier confirmed it
+    /// (here its place no longer held).
     #[test]
     fn a_weak_overlap_alone_is_placed_only_when_confirmed() {
-        let found = [placed(0.15, [0, 100], [0, 100], 0.0)];
-        assert!(estimate(&found, &[], &points()).is_none());
-        assert!(estimate(&found, &found, &points()).is_some());
+        let h = placed(0.15, [0, 100], [0, 100], 0.0);
+        assert!(estimate(std::slice::from_ref(&h), &[], &points()).is_none());
+        assert!(estimate(&[], &[(h, None)], &points()).is_some());
     }
 }

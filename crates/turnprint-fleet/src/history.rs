@@ -369,6 +369,23 @@ impl RobotHistory {
         Some(w.path)
     }
 
+    /// Where the robot was at its pose `pose`, in its 3D frame: the held
+    /// track sample of that pose (or the next one); `None` when the pose is
+    /// not held (dropped, or not yet received).
+    pub fn position_of(&self, pose: usize) -> Option<nalgebra::Vector3<f64>> {
+        let frame = self.frame?;
+        let poses = &self.history.pose;
+        if poses.first().is_none_or(|&p| p as usize > pose) {
+            return None;
+        }
+        let i = poses.partition_point(|&p| (p as usize) < pose);
+        let p = self.history.xy.get(i)?;
+        Some(
+            frame.plane.origin
+                + frame.plane.world_R_plane * nalgebra::Vector3::new(p[0] as f64, p[1] as f64, 0.0),
+        )
+    }
+
     /// About `n` points of the track in the robot's 3D frame, evenly
     /// spread (for comparing placements).
     pub fn points3(&self, n: usize) -> Vec<nalgebra::Vector3<f64>> {

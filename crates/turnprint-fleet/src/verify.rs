@@ -175,9 +175,11 @@ impl<'a> Verifying<'a> {
     /// Asks for the other robot's keyframe of cross-robot candidate `id`.
     pub fn cross(&mut self, id: u64, candidate: CrossCandidate) {
         if let Some(tx) = &self.requests {
+            // Kept with the one correspondence its keyframes are taken at:
+            // what a confirmation vouches for.
             let kept = CrossCandidate {
                 hypothesis: Hypothesis {
-                    correspondences: Vec::new(),
+                    correspondences: vec![verified_at(&candidate.hypothesis)],
                     ..candidate.hypothesis.clone()
                 },
                 ..candidate.clone()

@@ -346,8 +346,9 @@ fn a_robot_past_its_history_budget_still_places_the_other() {
 }
 
 /// A confirmation of a candidate found in an earlier session of a robot
-/// (before it restarted) is ignored; one of its current session leads the
-/// estimate of that robot.
+/// (before it restarted) is ignored; one of its current session counts,
+/// and vouches for the placement that lays its place together, not for its
+/// own similarity (here moved far off).
 #[test]
 fn a_confirmation_from_a_robots_earlier_session_is_ignored() {
     let (drive, ta, tb, a, b) = whole_and_tail(1, 11, 1400);
@@ -366,20 +367,29 @@ fn a_confirmation_from_a_robots_earlier_session_is_ignored() {
     }
     let right = b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0);
     assert!(right < 0.03, "b misplaced by {right}");
-    // A candidate moved far off, as if its robot had been confirmed there.
-    let mut off = found.first().expect("a cross candidate").clone();
+    let confirmed = |fleet: &Fleet| fleet.estimates()["b"].as_ref().map(|e| e.confirmed);
+    assert_eq!(confirmed(&fleet), Some(0));
+    // A true candidate (its middle correspondence one place of the drive:
+    // B's pose m is the drive's 1400 + m), moved far off.
+    let mut off = found
+        .iter()
+        .find(|c| {
+            let h = &c.hypothesis;
+            let (q, m) = h.correspondences[h.correspondences.len() / 2];
+            q.abs_diff(m + 1400) <= 5
+        })
+        .expect("a true cross candidate")
+        .clone();
     off.hypothesis.translation += Vector3::new(1e4, 0.0, 0.0);
     off.epoch = 1;
     fleet.confirm(&off);
-    let stale = b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0);
-    assert_eq!(stale, right, "a stale confirmation moved the estimate");
+    assert_eq!(confirmed(&fleet), Some(0), "a stale confirmation counted");
+    assert_eq!(b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0), right);
     off.epoch = 2;
     fleet.confirm(&off);
-    assert_eq!(
-        fleet.estimates()["b"].as_ref().map(|e| e.confirmed),
-        Some(1)
-    );
-    assert!(b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0) > 1.0);
+    assert_eq!(confirmed(&fleet), Some(1));
+    let e = b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0);
+    assert!(e < 0.03, "b misplaced by {e} after the confirmation");
 }
 
 /// A peer whose payloads arrive corrupted (bytes flipped, cut short, a
