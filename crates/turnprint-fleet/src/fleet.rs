@@ -438,11 +438,10 @@ impl Fleet {
     }
 
     /// Takes in a candidate the verifier confirmed on both robots'
-    /// keyframes, taken at the candidate's middle correspondence (its first
-    /// correspondence, or its ranges' starts without any): the estimate of
-    /// its robot then leads with a placement that lays those two poses
-    /// together ([`estimate`]). A candidate of an earlier session of the
-    /// robot is ignored.
+    /// keyframes, taken at the poses [`crate::verify::verified_at`] gives:
+    /// the estimate of its robot then leads with a placement that lays
+    /// those two poses together ([`estimate`]). A candidate of an earlier
+    /// session of the robot is ignored.
     pub fn confirm(&mut self, c: &CrossCandidate) {
         let Some(peer) = self.peers.get_mut(&c.robot) else {
             return;
@@ -451,11 +450,7 @@ impl Fleet {
             return;
         }
         let h = &c.hypothesis;
-        let (own, theirs) = h
-            .correspondences
-            .get(h.correspondences.len() / 2)
-            .copied()
-            .unwrap_or((h.a_range[0], h.b_range[0]));
+        let (own, theirs) = crate::verify::verified_at(h);
         let place = self
             .own
             .position_of(own)
