@@ -440,7 +440,7 @@ impl Fleet {
     /// Takes in a candidate the verifier confirmed on both robots'
     /// keyframes, taken at the poses [`crate::verify::verified_at`] gives:
     /// the estimate of its robot then leads with a placement that lays
-    /// those two poses together ([`estimate`]). A candidate of an earlier
+    /// those two poses together ([`Fleet::estimates`]). A candidate of an earlier
     /// session of the robot is ignored.
     pub fn confirm(&mut self, c: &CrossCandidate) {
         let Some(peer) = self.peers.get_mut(&c.robot) else {
@@ -465,7 +465,8 @@ impl Fleet {
     }
 
     /// The best estimate of where each robot heard from lies in this
-    /// robot's frame (`None`: not merged).
+    /// robot's frame (`None`: not merged), led by the places the verifier
+    /// confirmed where it did ([`Fleet::confirm`]).
     pub fn estimates(&self) -> BTreeMap<String, Option<Estimate>> {
         self.peers
             .iter()
