@@ -379,11 +379,7 @@ impl RobotHistory {
             return None;
         }
         let i = poses.partition_point(|&p| (p as usize) < pose);
-        let p = self.history.xy.get(i)?;
-        Some(
-            frame.plane.origin
-                + frame.plane.world_R_plane * nalgebra::Vector3::new(p[0] as f64, p[1] as f64, 0.0),
-        )
+        Some(lifted(&frame, self.history.xy.get(i)?))
     }
 
     /// About `n` points of the track in the robot's 3D frame, evenly
@@ -396,11 +392,13 @@ impl RobotHistory {
         let stride = xy.len().div_ceil(n.max(1)).max(1);
         xy.iter()
             .step_by(stride)
-            .map(|p| {
-                frame.plane.origin
-                    + frame.plane.world_R_plane
-                        * nalgebra::Vector3::new(p[0] as f64, p[1] as f64, 0.0)
-            })
+            .map(|p| lifted(&frame, p))
             .collect()
     }
+}
+
+/// A track sample's plane coordinates in the robot's 3D frame.
+fn lifted(frame: &FrameInfo, p: &[f32; 2]) -> nalgebra::Vector3<f64> {
+    frame.plane.origin
+        + frame.plane.world_R_plane * nalgebra::Vector3::new(p[0] as f64, p[1] as f64, 0.0)
 }

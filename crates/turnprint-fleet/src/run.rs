@@ -291,7 +291,8 @@ fn run(
         None => None,
     };
     // Where the verifier confirmed a cross-robot candidate, the estimate of
-    // that robot leads with it.
+    // that robot leads with a placement that lays its keyframes' place
+    // together.
     for c in verifying
         .as_mut()
         .map(|v| v.confirmed())
