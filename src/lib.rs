@@ -68,6 +68,8 @@ pub mod pipeline;
 pub mod score;
 pub mod segments;
 pub mod signature;
+#[cfg(test)]
+mod test_data;
 pub mod track;
 pub mod trajectory;
 

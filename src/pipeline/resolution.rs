@@ -113,29 +113,6 @@ mod tests {
     use crate::io::{read_trajectory, Format};
     use crate::pipeline::Config;
 
-    /// `rel` (e.g. `kitti_gt/00.txt`) where `turnprint_eval::data::require`
-    /// finds it (unit tests cannot use it): in `$TURNPRINT_DATA` alone when
-    /// set, else in `../shared/data` beside the repository, then in the
-    /// set-up cache `target/data`; `None` after a `skipped:` line (a failure
-    /// under `CI=true`).
-    fn shared_data(rel: &str) -> Option<std::path::PathBuf> {
-        let dirs: Vec<std::path::PathBuf> = match std::env::var_os("TURNPRINT_DATA") {
-            Some(dir) => vec![dir.into()],
-            None => vec![
-                concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data").into(),
-                concat!(env!("CARGO_MANIFEST_DIR"), "/target/data").into(),
-            ],
-        };
-        let found = dirs.iter().map(|d| d.join(rel)).find(|p| p.is_file());
-        if found.is_none() {
-            let message = format!("{rel} is in none of {dirs:?} (set TURNPRINT_DATA)");
-            let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
-            assert!(!ci, "CI=true: {message}");
-            eprintln!("skipped: {message}");
-        }
-        found
-    }
-
     #[test]
     fn thinning_keeps_both_ends_and_maps_back() {
         let t = Trajectory::from_positions(
@@ -155,7 +132,7 @@ mod tests {
     /// 1 Hz): thinned again by about 10; against itself: not at all.
     #[test]
     fn the_denser_path_is_thinned_to_the_sparser_rate() {
-        let Some(path) = shared_data("kitti_gt/00.txt") else {
+        let Some(path) = crate::test_data::shared_data("kitti_gt/00.txt") else {
             return;
         };
         let t = read_trajectory(&path, Format::Kitti).expect("00");

@@ -54,32 +54,9 @@ fn settling_drops_a_registration_too_soon_keeps_the_top_k_and_numbers_in_order()
     assert_eq!(emitted.load(Ordering::Relaxed), 5);
 }
 
-/// `rel` (e.g. `kitti_gt/00.txt`) where `turnprint_eval::data::require`
-/// finds it (unit tests cannot use it): in `$TURNPRINT_DATA` alone when
-/// set, else in `../shared/data` beside the repository, then in the
-/// set-up cache `target/data`; `None` after a `skipped:` line (a failure
-/// under `CI=true`).
-fn shared_data(rel: &str) -> Option<std::path::PathBuf> {
-    let dirs: Vec<std::path::PathBuf> = match std::env::var_os("TURNPRINT_DATA") {
-        Some(dir) => vec![dir.into()],
-        None => vec![
-            concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data").into(),
-            concat!(env!("CARGO_MANIFEST_DIR"), "/target/data").into(),
-        ],
-    };
-    let found = dirs.iter().map(|d| d.join(rel)).find(|p| p.is_file());
-    if found.is_none() {
-        let message = format!("{rel} is in none of {dirs:?} (set TURNPRINT_DATA)");
-        let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
-        assert!(!ci, "CI=true: {message}");
-        eprintln!("skipped: {message}");
-    }
-    found
-}
-
 /// KITTI 00's ground truth positions, or `None` when absent.
 fn kitti_00() -> Option<Vec<nalgebra::Vector3<f64>>> {
-    let path = shared_data("kitti_gt/00.txt")?;
+    let path = crate::test_data::shared_data("kitti_gt/00.txt")?;
     let t = crate::io::read_trajectory(&path, crate::io::Format::Kitti).expect("KITTI 00");
     Some(t.positions())
 }
