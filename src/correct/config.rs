@@ -135,6 +135,7 @@ impl OdometryNoise {
             rotation: self.rotation * (d / length).sqrt(),
             log_scale: self.log_scale * (d / length).sqrt(),
             slide: None,
+            height: None,
             roll: None,
         }
     }
@@ -189,6 +190,7 @@ impl LoopNoise {
             rotation: (self.rotation_lever * t / length).min(1.0) * share,
             log_scale: (self.rotation_lever * t / length).min(1.0) * share,
             slide: None,
+            height: None,
             roll: None,
         }
     }

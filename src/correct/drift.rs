@@ -71,10 +71,13 @@ pub(super) fn misses(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> 
     };
     for e in &edges {
         let (r, w) = miss(solution, e);
-        let (across, a) = match e.sigmas.slide {
-            Some(slide) => (r - slide.axis * slide.axis.dot(&r), 2.0),
-            None => (r, 3.0),
-        };
+        // Misses along a loose axis (a slide, a height) are the loop's own
+        // freedom, not drift.
+        let (mut across, mut a) = (r, 3.0);
+        for l in [e.sigmas.slide, e.sigmas.height].iter().flatten() {
+            across -= l.axis * l.axis.dot(&across);
+            a -= 1.0;
+        }
         m.translation += across.norm_squared() / n;
         m.axes += a / n;
         // The loop's own variance: its edges share one measurement.

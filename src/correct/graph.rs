@@ -43,6 +43,15 @@ pub struct Sigmas {
     /// differ, then pin the loop along the road together where the shape
     /// does.
     pub slide: Option<Loose>,
+    /// A loop edge's freedom along the path's normal, across the road's
+    /// surface; `None`: none beyond the other axes'.
+    ///
+    /// A levelled loop lays its passes at one height, but only to within
+    /// the height difference that took ([`LoopClosure::height`]): where the
+    /// odometry drifts in height the loop pulls its passes together, where
+    /// it does not (the passes truly apart, or a ground truth's own height
+    /// error) the odometry holds them.
+    pub height: Option<Loose>,
     /// A loop edge's freedom to turn about the road; `None`: isotropic
     /// rotation.
     ///
@@ -66,18 +75,16 @@ pub struct Loose {
 }
 
 /// The square root of the information of one block whose sigma is `sigma`
-/// on every axis but `loose`'s: `(I - a aᵀ) / σ + a aᵀ / σ_a`. The two
-/// projections are orthogonal, so its square is the information
-/// `(I - a aᵀ) / σ² + a aᵀ / σ_a²`.
-fn block(sigma: f64, loose: Option<Loose>) -> Matrix3<f64> {
-    let all = Matrix3::identity() / sigma;
-    match loose {
-        Some(l) => {
-            let aat = l.axis * l.axis.transpose();
-            all - aat / sigma + aat / l.sigma
-        }
-        None => all,
+/// on every axis but the `loose` ones' (orthogonal to each other):
+/// `(I - Σ a aᵀ) / σ + Σ a aᵀ / σ_a`. The projections are orthogonal, so its
+/// square is the information `(I - Σ a aᵀ) / σ² + Σ a aᵀ / σ_a²`.
+fn block(sigma: f64, loose: &[Option<Loose>]) -> Matrix3<f64> {
+    let mut w = Matrix3::identity() / sigma;
+    for l in loose.iter().flatten() {
+        let aat = l.axis * l.axis.transpose();
+        w += aat / l.sigma - aat / sigma;
     }
+    w
 }
 
 impl Sigmas {
@@ -103,17 +110,17 @@ impl Sigmas {
 
     /// The translation block of [`Sigmas::sqrt_information`].
     pub fn translation_sqrt_information(&self) -> Matrix3<f64> {
-        block(self.translation, self.slide)
+        block(self.translation, &[self.slide, self.height])
     }
 
     /// The rotation block of [`Sigmas::sqrt_information`].
     pub fn rotation_sqrt_information(&self) -> Matrix3<f64> {
-        block(self.rotation, self.roll)
+        block(self.rotation, &[self.roll])
     }
 
     /// Whether the information is the same on every axis of each block.
     pub fn isotropic(&self) -> bool {
-        self.slide.is_none() && self.roll.is_none()
+        self.slide.is_none() && self.height.is_none() && self.roll.is_none()
     }
 
     /// A translation residual (in the frame of the edge's `to` node) in
@@ -214,9 +221,10 @@ impl PoseGraph {
                 loop_id: None,
             });
         }
+        let up = Plane::fit(&positions).world_R_plane.column(2).into_owned();
         for (id, l) in loops.iter().enumerate() {
             edges.extend(loop_edges(
-                &keyframes, &poses, &positions, &arc, l, id, group, config,
+                &keyframes, &poses, &positions, &arc, &up, l, id, group, config,
             ));
         }
         Ok(PoseGraph {
@@ -266,6 +274,7 @@ fn loop_edges(
     poses: &[Similarity3],
     positions: &[Vector3<f64>],
     arc: &[f64],
+    up: &Vector3<f64>,
     l: &LoopClosure,
     id: usize,
     group: Group,
@@ -291,6 +300,17 @@ fn loop_edges(
         (world.norm() > 0.0).then(|| Loose {
             axis: poses[i].rotation.transpose() * world.normalize(),
             sigma: config.loop_noise.slide * length * (picks as f64).sqrt(),
+        })
+    };
+    // The path's normal square to the direction of travel, so that the
+    // two loose axes are orthogonal; at least as loose as the other axes.
+    let height = |i: usize| -> Option<Loose> {
+        let along = slide(i).map_or_else(Vector3::zeros, |s| poses[i].rotation * s.axis);
+        let world = up - along * along.dot(up);
+        let sigma = l.height * (picks as f64).sqrt();
+        (world.norm() > 0.0 && sigma > sigmas.translation).then(|| Loose {
+            axis: poses[i].rotation.transpose() * world.normalize(),
+            sigma,
         })
     };
     let lever = config
@@ -329,6 +349,7 @@ fn loop_edges(
                 from_T_to: j_T_i,
                 sigmas: Sigmas {
                     slide: slide(i),
+                    height: height(i),
                     roll: roll(i),
                     ..sigmas
                 },

@@ -7,7 +7,9 @@
 //!      -> PoseGraph (keyframes, odometry edges, loop edges free along the road)
 //!      -> choice (apex-solver, least squares, rise of the cost, best loop first)
 //!      -> drift measured from the chosen loops, and the loops it explains
-//!      -> final solve -> every pose carried along by its keyframes
+//!      -> final solve, each loop's passes laid at one height
+//!         (LoopClosure::levelled, on a path that keeps to a surface)
+//!      -> every pose carried along by its keyframes
 //! ```
 //!
 //! Loops are chosen under the odometry prior, an upper bound on drift:
@@ -22,6 +24,10 @@
 //! show. The final solve, plain least squares with each loop trusted as far
 //! as its own misfit says, moves the path only as far as that drift allows:
 //! loops that show no drift beyond their own noise leave the path as it was.
+//! There the loops are levelled: the search fits shapes in the path's plane
+//! and leaves each loop the height difference the odometry has between its
+//! passes, which the choice needs (a look-alike on a hill differs in
+//! height) but which the final solve would hold as the truth.
 
 // Frame names as in Sophus: `a_T_b` maps points from b to a.
 #![allow(non_snake_case)]
@@ -188,6 +194,10 @@ pub fn correct_again_from(
                 .collect(),
         );
     };
+    // The final solve takes the loops levelled (LoopClosure::levelled).
+    let positions = path.positions();
+    let loops: Vec<LoopClosure> = loops.iter().map(|l| l.levelled(&positions)).collect();
+    let loops = &loops[..];
     let graph = PoseGraph::build(
         path,
         loops,

@@ -88,8 +88,10 @@ enum Command {
         output: PathBuf,
         /// Print one JSON object (cli.md) with the loops kept and rejected;
         /// also the graph's `group`, and per loop `reversed`, `residual`
-        /// (sigmas after the solve), `scale` and `scale_shown` (whether the
-        /// passes' shape fixes that scale: only those count for `auto`).
+        /// (sigmas after the solve), `scale`, `scale_shown` (whether the
+        /// passes' shape fixes that scale: only those count for `auto`) and
+        /// `height` (how far apart in height its passes lay before the
+        /// final solve levelled them: the odometry's height drift there).
         #[arg(long)]
         json: bool,
         /// Take the loops from this file (the object `loops --json` prints)
@@ -640,6 +642,7 @@ fn run_correct(
                     "score": c.score, "reversed": c.reversed, "kept": l.kept,
                     "residual": if l.residual.is_finite() { json!(l.residual) } else { json!(null) },
                     "scale": c.query_T_match.scale, "scale_shown": c.scale_shown,
+                    "height": c.height,
                 })
             })
             .collect();

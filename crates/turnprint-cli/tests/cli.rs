@@ -731,7 +731,9 @@ fn correct_json_follows_the_contract() {
             "{l}"
         );
         assert!(
-            l["scale"].as_f64().unwrap() > 0.0 && l["scale_shown"].is_boolean(),
+            l["scale"].as_f64().unwrap() > 0.0
+                && l["scale_shown"].is_boolean()
+                && l["height"].as_f64().unwrap() >= 0.0,
             "{l}"
         );
     }

@@ -288,60 +288,66 @@ impl Kind {
                  the graph's sigmas are one per block"
             ));
         }
-        let (translation, slide) = loose_block(&m, 0, nt, "translation")?;
-        let (rotation, roll) = loose_block(&m, nt, nr, "rotation")?;
+        let (translation, loose) = loose_block(&m, 0, nt, 2, "translation")?;
+        // The loosest translation axis is the slide along the road, the
+        // other the height ([`Sigmas::height`]).
+        let (slide, height) = (loose.first().copied(), loose.get(1).copied());
+        let (rotation, roll) = loose_block(&m, nt, nr, 1, "rotation")?;
+        let roll = roll.first().copied();
         let log_scale = (self == Kind::Sim3).then(|| m[(6, 6)]);
         Ok(Sigmas {
             translation,
             rotation,
             log_scale: log_scale.map_or(1.0, |v| 1.0 / v.sqrt()),
             slide,
+            height,
             roll,
         })
     }
 }
 
-/// The sigma and loose axis of the `n` rows of an information matrix from
+/// The sigma and loose axes of the `n` rows of an information matrix from
 /// row `at` on (one block, `what`): equal information on every axis (no
-/// loose axis), or equal on all but one axis, which has less. A planar
-/// graph's third translation axis takes the in-plane information across
-/// (see [`from_g2o`]).
+/// loose axis), or equal on all but at most `most_loose` axes, which have
+/// less, loosest first. A planar graph's third translation axis takes the
+/// in-plane information across (see [`from_g2o`]).
 fn loose_block(
     m: &nalgebra::DMatrix<f64>,
     at: usize,
     n: usize,
+    most_loose: usize,
     what: &str,
-) -> std::result::Result<(f64, Option<Loose>), String> {
+) -> std::result::Result<(f64, Vec<Loose>), String> {
     // Bounded iterations: entries near f64's range must give an error, not
     // a decomposition that never converges.
     let eig = nalgebra::SymmetricEigen::try_new(m.view((at, at), (n, n)).into_owned(), 1e-15, 1000)
         .ok_or(format!("{what} information has no eigen-decomposition"))?;
     let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-    let most = eig.eigenvalues[order[0]];
-    let least = eig.eigenvalues[order[n - 1]];
-    let equal = |v: f64| (v - most).abs() <= 1e3 * INFO_TOLERANCE * most;
-    if least <= 0.0 {
+    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+    let most = eig.eigenvalues[order[n - 1]];
+    if eig.eigenvalues[order[0]] <= 0.0 {
         return Err(format!("{what} information is not positive definite"));
     }
-    if equal(least) {
-        return Ok((1.0 / most.sqrt(), None));
-    }
-    if !order[..n - 1].iter().all(|&k| equal(eig.eigenvalues[k])) {
+    let equal = |v: f64| (v - most).abs() <= 1e3 * INFO_TOLERANCE * most;
+    let loose: Vec<Loose> = order
+        .iter()
+        .filter(|&&k| !equal(eig.eigenvalues[k]))
+        .map(|&k| {
+            let v = eig.eigenvectors.column(k);
+            Loose {
+                axis: Vector3::new(v[0], v[1], if n == 3 { v[2] } else { 0.0 }),
+                sigma: 1.0 / eig.eigenvalues[k].sqrt(),
+            }
+        })
+        .collect();
+    if loose.len() > most_loose {
         return Err(format!(
             "{what} information has eigenvalues {:?}: the graph's {what} sigmas \
-             are one on every axis but one, and one on that",
+             are one on every axis but at most {most_loose}",
             eig.eigenvalues.as_slice()
         ));
     }
-    let v = eig.eigenvectors.column(order[n - 1]);
-    Ok((
-        1.0 / most.sqrt(),
-        Some(Loose {
-            axis: Vector3::new(v[0], v[1], if n == 3 { v[2] } else { 0.0 }),
-            sigma: 1.0 / least.sqrt(),
-        }),
-    ))
+    Ok((1.0 / most.sqrt(), loose))
 }
 
 fn parse_error(line: usize, message: impl Into<String>) -> Error {
