@@ -449,11 +449,19 @@ fn correction_drawing(
     let (b2, a2) = (project(view, before), project(view, after));
     let mut lines = vec![(b2, PATH_COLOUR, 2), (a2.clone(), CORRECTED_COLOUR, 2)];
     let middle = |r: [usize; 2]| a2.get((r[0] + r[1]) / 2).copied();
-    for &(query, matched, kept) in loops {
-        let colour = if kept { KEPT_COLOUR } else { REJECTED_COLOUR };
-        lines.push((part(&a2, query), colour, 5));
+    // Rejected loops first and thinner: a search's look-alikes outnumber
+    // its loops and hid the kept ones under them.
+    let mut order: Vec<&LoopMark> = loops.iter().collect();
+    order.sort_by_key(|l| l.2);
+    for &&(query, matched, kept) in &order {
+        let (colour, width) = if kept {
+            (KEPT_COLOUR, 5)
+        } else {
+            (REJECTED_COLOUR, 3)
+        };
+        lines.push((part(&a2, query), colour, width));
         if let (Some(q), Some(m)) = (middle(query), middle(matched)) {
-            lines.push((vec![q, m], colour, 2));
+            lines.push((vec![q, m], colour, width / 2));
         }
     }
     let kept = loops.iter().filter(|l| l.2).count();
@@ -461,7 +469,7 @@ fn correction_drawing(
         (PATH_COLOUR, 2, "before".to_string()),
         (CORRECTED_COLOUR, 2, "corrected".to_string()),
         (KEPT_COLOUR, 4, "loop kept".to_string()),
-        (REJECTED_COLOUR, 4, "loop rejected".to_string()),
+        (REJECTED_COLOUR, 3, "loop rejected".to_string()),
     ];
     let heading = [
         format!("drift correction: {} poses", after.len()),
