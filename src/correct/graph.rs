@@ -47,7 +47,7 @@ pub struct Sigmas {
     /// surface; `None`: none beyond the other axes'.
     ///
     /// A levelled loop lays its passes at one height, but only to within
-    /// the height difference that took ([`LoopClosure::height`]): where the
+    /// the height difference that took ([`LoopClosure::height()`]): where the
     /// odometry drifts in height the loop pulls its passes together, where
     /// it does not (the passes truly apart, or a ground truth's own height
     /// error) the odometry holds them.
@@ -221,10 +221,9 @@ impl PoseGraph {
                 loop_id: None,
             });
         }
-        let up = Plane::fit(&positions).world_R_plane.column(2).into_owned();
         for (id, l) in loops.iter().enumerate() {
             edges.extend(loop_edges(
-                &keyframes, &poses, &positions, &arc, &up, l, id, group, config,
+                &keyframes, &poses, &positions, &arc, l, id, group, config,
             ));
         }
         Ok(PoseGraph {
@@ -274,7 +273,6 @@ fn loop_edges(
     poses: &[Similarity3],
     positions: &[Vector3<f64>],
     arc: &[f64],
-    up: &Vector3<f64>,
     l: &LoopClosure,
     id: usize,
     group: Group,
@@ -302,12 +300,14 @@ fn loop_edges(
             sigma: config.loop_noise.slide * length * (picks as f64).sqrt(),
         })
     };
-    // The path's normal square to the direction of travel, so that the
-    // two loose axes are orthogonal; at least as loose as the other axes.
+    // Along the levelling move (the path's normal) square to the direction
+    // of travel, so that the two loose axes are orthogonal; at least as
+    // loose as the other axes.
     let height = |i: usize| -> Option<Loose> {
         let along = slide(i).map_or_else(Vector3::zeros, |s| poses[i].rotation * s.axis);
-        let world = up - along * along.dot(up);
-        let sigma = l.height * (picks as f64).sqrt();
+        let up = l.level.try_normalize(0.0)?;
+        let world = up - along * along.dot(&up);
+        let sigma = l.height() * (picks as f64).sqrt();
         (world.norm() > 0.0 && sigma > sigmas.translation).then(|| Loose {
             axis: poses[i].rotation.transpose() * world.normalize(),
             sigma,

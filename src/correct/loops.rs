@@ -30,10 +30,8 @@ pub struct LoopClosure {
     /// ([`LoopClosure::levelled`]); zero where the path does not keep to a
     /// surface ([`SURFACE_GRADE`]).
     pub level: Vector3<f64>,
-    /// How far apart in height the passes lay before the loop was levelled,
-    /// in path units: a levelled loop says they lie at one height only to
-    /// within it. Zero for a loop as the search fitted it.
-    pub height: f64,
+    /// `query_T_match` has been moved by `level`.
+    pub levelled: bool,
     /// The two passes' shape fixes the scale between them: the best rigid
     /// motion misfits them at least [`SCALE_SHOWN`] times as badly as the
     /// best similarity, both refined from `query_T_match` on the query's
@@ -116,8 +114,19 @@ impl LoopClosure {
             } else {
                 Vector3::zeros()
             },
-            height: 0.0,
+            levelled: false,
         })
+    }
+
+    /// How far apart in height the passes lay before the loop was levelled,
+    /// in path units: a levelled loop says they lie at one height only to
+    /// within it. Zero for a loop as the search fitted it.
+    pub fn height(&self) -> f64 {
+        if self.levelled {
+            self.level.norm()
+        } else {
+            0.0
+        }
     }
 
     /// The loop with its passes laid at one height ([`LoopClosure::level`]),
@@ -137,14 +146,16 @@ impl LoopClosure {
     /// `positions` are the path's the loop is of.
     pub fn levelled(&self, positions: &[Vector3<f64>]) -> Self {
         let mut out = self.clone();
+        if self.levelled {
+            return out;
+        }
         out.query_T_match.translation += self.level;
         out.rmse = misfit(
             &positions[self.query_range[0]..=self.query_range[1]],
             &positions[self.match_range[0]..=self.match_range[1]],
             &out.query_T_match,
         );
-        out.height = self.level.norm();
-        out.level = Vector3::zeros();
+        out.levelled = true;
         out
     }
 
@@ -541,7 +552,7 @@ mod tests {
         let search = LoopClosure::new(&path, q, m, Some(along), 1.0, false).unwrap();
         assert!(search.rmse > 9.0, "the fit's own misfit {}", search.rmse);
         let l = search.levelled(&path.positions());
-        assert!((l.height - 10.0).abs() < 0.01, "height {}", l.height);
+        assert!((l.height() - 10.0).abs() < 0.01, "height {}", l.height());
         // Within 3 % of the raise: the raised pass tilts the path's plane,
         // whose normal the levelling follows, by about a degree.
         assert!(l.rmse < 0.3, "levelled passes misfit by {}", l.rmse);
@@ -577,7 +588,7 @@ mod tests {
         let l = LoopClosure::new(&path, q, m, Some(along), 1.0, false)
             .unwrap()
             .levelled(&path.positions());
-        assert_eq!(l.height, 0.0);
+        assert_eq!(l.height(), 0.0);
         assert_eq!(l.query_T_match, along);
     }
 

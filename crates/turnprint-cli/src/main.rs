@@ -642,7 +642,7 @@ fn run_correct(
                     "score": c.score, "reversed": c.reversed, "kept": l.kept,
                     "residual": if l.residual.is_finite() { json!(l.residual) } else { json!(null) },
                     "scale": c.query_T_match.scale, "scale_shown": c.scale_shown,
-                    "height": c.height,
+                    "height": c.height(),
                 })
             })
             .collect();
