@@ -241,13 +241,19 @@ fn csv_reads_named_columns_and_ignores_the_others() {
     assert_eq!(gps.poses[0].t, Some(v[0]));
     assert_eq!(gps.poses[0].position, Vector3::new(v[1], v[2], v[3]));
     let odom = read_trajectory(&odom_path, Format::Auto).unwrap();
-    // theta is ignored and z is 0.
+    // theta is the heading about z, and z is 0.
     assert_eq!(odom.poses[0].t, Some(1211.530144));
     assert_eq!(
         odom.poses[0].position,
         Vector3::new(-3.034287, 8.291214, 0.0)
     );
-    assert_eq!(odom.poses[0].orientation, None);
+    let theta = numbers_of_line(&odom_path, 2)[3];
+    let q = odom.poses[0]
+        .orientation
+        .expect("theta gives an orientation");
+    assert!((q.angle() - theta.abs()).abs() < 1e-12);
+    assert!((q * Vector3::x()).z.abs() < 1e-12);
+    assert!(((q * Vector3::x()).y.atan2((q * Vector3::x()).x) - theta).abs() < 1e-12);
     let ms = parse_trajectory(
         "x [m],stamp [ms],y\n1,2500,3\n",
         Format::Csv,
@@ -256,6 +262,19 @@ fn csv_reads_named_columns_and_ignores_the_others() {
     .unwrap();
     assert_eq!(ms.poses[0].t, Some(2.5));
     assert_eq!(ms.poses[0].position, Vector3::new(1.0, 3.0, 0.0));
+    assert_eq!(ms.poses[0].orientation, None);
+    for header in ["t,x,y,yaw_deg", "t,x,y,yaw [deg]", "t x y theta_rad"] {
+        let value = if header.contains("deg") {
+            "90"
+        } else {
+            "1.5707963267948966"
+        };
+        let sep = if header.contains(',') { "," } else { " " };
+        let text = format!("{header}\n0{sep}1{sep}2{sep}{value}\n");
+        let p = parse_trajectory(&text, Format::Csv, Path::new("h.csv")).unwrap();
+        let q = p.poses[0].orientation.expect(header);
+        assert!((q * Vector3::x() - Vector3::y()).norm() < 1e-12, "{header}");
+    }
 }
 
 #[test]

@@ -4,8 +4,10 @@
 //! `#` line that names the columns (as in the CARMEN odometry exports). Names are matched case-insensitively after
 //! dropping a unit, written either as a suffix (`x_m`, `timestamp_s`) or in
 //! brackets (`x [m]`): `t`/`time`/`timestamp`/`stamp` (optional), `x`, `y`,
-//! `z` (optional). Other columns are ignored. Fields are separated by commas
-//! when the header has one, else by whitespace.
+//! `z` (optional), `theta`/`yaw` (optional: the heading about z, in radians,
+//! or degrees as `yaw_deg`/`yaw [deg]`, as wheel odometry logs it). Other
+//! columns are ignored. Fields are separated by commas when the header has
+//! one, else by whitespace.
 
 use std::path::Path;
 
@@ -21,6 +23,8 @@ pub(super) struct Columns {
     x: usize,
     y: usize,
     z: Option<usize>,
+    /// The heading's column and its unit in radians.
+    yaw: Option<(usize, f64)>,
     count: usize,
     comma: bool,
 }
@@ -31,10 +35,12 @@ enum Role {
     X,
     Y,
     Z,
+    /// Heading about z, with its unit in radians.
+    Yaw(f64),
     Other,
 }
 
-/// CSV lines (no orientation): the header, then the data.
+/// CSV lines (an orientation only from a heading): the header, then the data.
 #[derive(Default)]
 pub(super) struct Csv {
     /// The header's line and columns, once read.
@@ -81,10 +87,17 @@ impl LineFormat for Csv {
             Some(i) => get(i)?,
             None => 0.0,
         };
+        let orientation = match columns.yaw {
+            Some((i, unit)) => Some(nalgebra::UnitQuaternion::from_axis_angle(
+                &Vector3::z_axis(),
+                get(i)? * unit,
+            )),
+            None => None,
+        };
         Ok(Some(pose(
             t,
             Vector3::new(get(columns.x)?, get(columns.y)?, z),
-            None,
+            orientation,
         )))
     }
 }
@@ -98,7 +111,7 @@ pub(super) fn header_columns(header: &str) -> std::result::Result<Columns, Strin
     } else {
         header.split_whitespace().collect()
     };
-    let (mut t, mut x, mut y, mut z) = (None, None, None, None);
+    let (mut t, mut x, mut y, mut z, mut yaw) = (None, None, None, None, None);
     for (i, name) in names.iter().enumerate() {
         // The first column with a role wins; later duplicates are ignored.
         match role(name) {
@@ -106,6 +119,7 @@ pub(super) fn header_columns(header: &str) -> std::result::Result<Columns, Strin
             Role::X => x = x.or(Some(i)),
             Role::Y => y = y.or(Some(i)),
             Role::Z => z = z.or(Some(i)),
+            Role::Yaw(unit) => yaw = yaw.or(Some((i, unit))),
             Role::Other => {}
         }
     }
@@ -115,6 +129,7 @@ pub(super) fn header_columns(header: &str) -> std::result::Result<Columns, Strin
             x,
             y,
             z,
+            yaw,
             count: names.len(),
             comma,
         }),
@@ -135,7 +150,9 @@ fn role(name: &str) -> Role {
         .and_then(|(_, rest)| rest.split([']', ')']).next())
         .map(str::trim);
     let (stem, unit) = match base.rsplit_once('_') {
-        Some((stem, unit)) if UNITS.iter().any(|(u, _)| *u == unit) => (stem, unit),
+        Some((stem, unit)) if UNITS.iter().chain(&ANGLE_UNITS).any(|(u, _)| *u == unit) => {
+            (stem, unit)
+        }
         _ => (base, bracketed.unwrap_or("")),
     };
     let seconds_per_unit = UNITS
@@ -147,6 +164,10 @@ fn role(name: &str) -> Role {
         "x" => Role::X,
         "y" => Role::Y,
         "z" => Role::Z,
+        "theta" | "yaw" => match ANGLE_UNITS.iter().find(|(u, _)| *u == unit) {
+            Some((_, radians)) => Role::Yaw(*radians),
+            None => Role::Other,
+        },
         _ => Role::Other,
     }
 }
@@ -160,5 +181,13 @@ const UNITS: [(&str, f64); 7] = [
     ("us", 1e-6),
     ("ns", 1e-9),
     ("m", 1.0),
+    ("", 1.0),
+];
+
+/// Angle unit suffixes and their size in radians (none: radians, as CARMEN
+/// and ROS log a heading).
+const ANGLE_UNITS: [(&str, f64); 3] = [
+    ("rad", 1.0),
+    ("deg", std::f64::consts::PI / 180.0),
     ("", 1.0),
 ];
