@@ -18,6 +18,8 @@
 //! set the graph's even keyframes and the loops taken from the search,
 //! `RIGID=1` takes the loops as rigid motions (`CorrectConfig::rigid_loops`),
 //! `GROUP=se3` or `GROUP=sim3` sets the node group instead of `auto`.
+//! Wheeled robots' dead reckoning with measured relations (CARMEN ACES) is
+//! a second table: relation errors before and after, batch and streamed.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -473,5 +475,67 @@ fn main() {
             corrected.group.name(),
             seconds
         );
+    }
+    if !online && std::env::var("ORACLE").is_err() && "wheel odometry".contains(&filter) {
+        relations(&dir);
+    }
+}
+
+/// Wheeled robots' dead reckoning (the CARMEN logs with measured
+/// relations beside them, `<log>.relations` and `<log>_odom.csv`): the
+/// relations' mean errors (`turnprint_eval::relations`) before and after
+/// correction, batch and streamed.
+fn relations(dir: &Path) {
+    use turnprint_eval::relations::{errors, read, Errors};
+    println!();
+    println!("| log | poses | relations (revisits) | before: all, m / deg | before: revisits, m / deg | batch: all | batch: revisits | loops kept / rejected | stream: all | stream: revisits | loops kept / rejected |");
+    println!("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|");
+    let cell = |e: &Errors| format!("{:.3} / {:.2}", e.translation, e.rotation.to_degrees());
+    for sub in ["carmen", "carmen/more"] {
+        let Ok(entries) = std::fs::read_dir(dir.join(sub)) else {
+            continue;
+        };
+        let mut files: Vec<PathBuf> = entries
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "relations"))
+            .collect();
+        files.sort();
+        for file in files {
+            let stem = file.file_stem().unwrap_or_default().to_string_lossy();
+            let odom = file.with_file_name(format!("{stem}_odom.csv"));
+            let (Ok(rel), Ok(est)) = (read(&file), read_trajectory(&odom, Format::Auto)) else {
+                println!("| {stem} | unreadable |");
+                continue;
+            };
+            let Some((all, revisits)) = errors(&est.poses, &rel) else {
+                println!("| {stem} | poses without a time or heading |");
+                continue;
+            };
+            let mut row = format!(
+                "| {stem} | {} | {} ({}) | {} | {} |",
+                est.len(),
+                all.count,
+                revisits.count,
+                cell(&all),
+                cell(&revisits)
+            );
+            for result in [correct(&est, &config()), streamed(&est)] {
+                match result.ok().and_then(|c| Some((errors(&c.poses, &rel)?, c))) {
+                    Some(((a, r), c)) => {
+                        let kept = c.kept();
+                        row += &format!(
+                            " {} | {} | {} / {} |",
+                            cell(&a),
+                            cell(&r),
+                            kept,
+                            c.loops.len() - kept
+                        );
+                    }
+                    None => row += " failed | | |",
+                }
+            }
+            println!("{row}");
+        }
     }
 }

@@ -16,6 +16,7 @@ pub mod kinds;
 pub mod loops;
 pub mod many;
 pub mod merge;
+pub mod relations;
 pub mod report;
 pub mod revisits;
 pub mod similarity;

@@ -1,0 +1,250 @@
+//! Relative-pose errors against measured relations, the metric of Kümmerle
+//! et al., "On measuring the accuracy of SLAM algorithms" (2009), for logs
+//! whose truth is a set of relations rather than a path: pairs of times and
+//! the planar motion between them, as the Freiburg SLAM evaluation ships for
+//! the Radish logs (`carmen/more/aces.relations`).
+//!
+//! A relation's error is the difference between the motion the path shows
+//! between the two times (the second pose in the first one's frame) and the
+//! measured motion: its translation's length and its heading's absolute
+//! angle. Revisits are the relations that close a loop: the path between
+//! their two poses is over [`REVISIT_DETOUR`] times as long as the distance
+//! between them and over [`REVISIT_SHARE`] of the whole path.
+
+use std::path::Path;
+
+use nalgebra::{Vector2, Vector3};
+use turnprint::Pose;
+
+/// How much longer than the distance between its two poses the path
+/// between them must be for a relation to close a loop: ten times, where a
+/// relation between poses a second apart is about as long as its path.
+pub const REVISIT_DETOUR: f64 = 10.0;
+
+/// Least share of the whole path's length between a revisit's two poses: a
+/// hundredth, so that a robot turning on the spot (a path of centimetres
+/// between poses millimetres apart) is no revisit.
+pub const REVISIT_SHARE: f64 = 0.01;
+
+/// The measured motion from the pose at `t[0]` to the pose at `t[1]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Relation {
+    /// The two times, in seconds.
+    pub t: [f64; 2],
+    /// The second pose's position in the first one's frame.
+    pub translation: Vector2<f64>,
+    /// The second pose's heading less the first's, in radians.
+    pub yaw: f64,
+}
+
+/// Reads a relations file: one relation per line, `t1 t2 x y z roll pitch
+/// yaw`; blank and `#` lines skipped.
+pub fn read(path: &Path) -> Result<Vec<Relation>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .map(|x| x.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("{}:{}: {e}", path.display(), n + 1))?;
+        if v.len() != 8 || v.iter().any(|x| !x.is_finite()) {
+            return Err(format!(
+                "{}:{}: expected 8 finite numbers (t1 t2 x y z roll pitch yaw)",
+                path.display(),
+                n + 1
+            ));
+        }
+        out.push(Relation {
+            t: [v[0], v[1]],
+            translation: Vector2::new(v[2], v[3]),
+            yaw: v[7],
+        });
+    }
+    Ok(out)
+}
+
+/// Mean errors over a set of relations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Errors {
+    /// Relations within the path's time span.
+    pub count: usize,
+    /// Mean translation error, in the path's units.
+    pub translation: f64,
+    /// Mean heading error, in radians.
+    pub rotation: f64,
+}
+
+/// The errors of `poses` (timed, each with an orientation, in time order)
+/// on every relation within their time span, and on the revisits alone;
+/// `None` when a pose has no time or no orientation.
+pub fn errors(poses: &[Pose], relations: &[Relation]) -> Option<(Errors, Errors)> {
+    let times: Vec<f64> = poses.iter().map(|p| p.t).collect::<Option<_>>()?;
+    let yaws: Vec<f64> = poses
+        .iter()
+        .map(|p| {
+            p.orientation.map(|q| {
+                let x = q * Vector3::x();
+                x.y.atan2(x.x)
+            })
+        })
+        .collect::<Option<_>>()?;
+    let positions: Vec<Vector3<f64>> = poses.iter().map(|p| p.position).collect();
+    let arc = crate::revisits::arc_lengths(&positions);
+    let total = arc.last().copied().unwrap_or(0.0);
+    // Pose at time t: positions and (unwrapped) headings interpolated.
+    let at = |t: f64| -> Option<(Vector2<f64>, f64, f64)> {
+        if times.is_empty() || t < times[0] || t > times[times.len() - 1] {
+            return None;
+        }
+        let k = times.partition_point(|x| *x < t).clamp(1, times.len() - 1);
+        let (a, b) = (k - 1, k);
+        let span = times[b] - times[a];
+        let w = if span > 0.0 {
+            ((t - times[a]) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let p = poses[a].position.lerp(&poses[b].position, w);
+        let turn = wrap(yaws[b] - yaws[a]);
+        Some((p.xy(), yaws[a] + w * turn, arc[a] + w * (arc[b] - arc[a])))
+    };
+    let mut all = Sums::default();
+    let mut revisits = Sums::default();
+    for r in relations {
+        let (Some((p1, y1, s1)), Some((p2, y2, s2))) = (at(r.t[0]), at(r.t[1])) else {
+            continue;
+        };
+        let d = p2 - p1;
+        let (c, s) = (y1.cos(), y1.sin());
+        let local = Vector2::new(c * d.x + s * d.y, -s * d.x + c * d.y);
+        let et = (local - r.translation).norm();
+        let er = wrap(y2 - y1 - r.yaw).abs();
+        all.add(et, er);
+        let path = (s2 - s1).abs();
+        if path > REVISIT_DETOUR * d.norm() && path > REVISIT_SHARE * total {
+            revisits.add(et, er);
+        }
+    }
+    Some((all.mean(), revisits.mean()))
+}
+
+/// An angle in (-π, π].
+fn wrap(a: f64) -> f64 {
+    let two_pi = std::f64::consts::TAU;
+    let w = a.rem_euclid(two_pi);
+    if w > std::f64::consts::PI {
+        w - two_pi
+    } else {
+        w
+    }
+}
+
+#[derive(Default)]
+struct Sums {
+    n: usize,
+    t: f64,
+    r: f64,
+}
+
+impl Sums {
+    fn add(&mut self, t: f64, r: f64) {
+        self.n += 1;
+        self.t += t;
+        self.r += r;
+    }
+
+    fn mean(&self) -> Errors {
+        let n = self.n.max(1) as f64;
+        Errors {
+            count: self.n,
+            translation: self.t / n,
+            rotation: self.r / n,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+
+    /// A robot driving a unit circle counter-clockwise, one pose per
+    /// second, heading along the circle.
+    fn circle(n: usize) -> Vec<Pose> {
+        (0..n)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 40.0;
+                Pose {
+                    t: Some(i as f64),
+                    position: Vector3::new(a.cos(), a.sin(), 0.0),
+                    orientation: Some(UnitQuaternion::from_axis_angle(
+                        &Vector3::z_axis(),
+                        a + std::f64::consts::FRAC_PI_2,
+                    )),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_path_that_agrees_with_its_relations_has_no_error_and_a_shifted_one_has_its_shift() {
+        let poses = circle(81);
+        // Quarter turns and a full lap (a revisit), measured from the path.
+        let relation = |a: usize, b: usize| {
+            let (pa, pb) = (&poses[a], &poses[b]);
+            let qa = pa.orientation.unwrap();
+            let local = qa.inverse() * (pb.position - pa.position);
+            let yaw = (qa.inverse() * pb.orientation.unwrap()).angle()
+                * (qa.inverse() * pb.orientation.unwrap())
+                    .axis()
+                    .map_or(1.0, |ax| ax.z.signum());
+            Relation {
+                t: [a as f64, b as f64],
+                translation: local.xy(),
+                yaw,
+            }
+        };
+        let relations = vec![relation(0, 10), relation(10, 20), relation(5, 45)];
+        let (all, revisits) = errors(&poses, &relations).unwrap();
+        assert_eq!((all.count, revisits.count), (3, 1));
+        assert!(all.translation < 1e-9 && all.rotation < 1e-9, "{all:?}");
+        // The second lap 0.5 to the side: only the revisit shows it.
+        let mut moved = poses.clone();
+        for p in &mut moved[40..] {
+            p.position.x += 0.5;
+        }
+        let (all, revisits) = errors(&moved, &relations).unwrap();
+        assert!((revisits.translation - 0.5).abs() < 1e-9, "{revisits:?}");
+        assert!((all.translation - 0.5 / 3.0).abs() < 1e-9, "{all:?}");
+        // Relations outside the path's time are left out; no orientation,
+        // no errors.
+        let late = vec![Relation {
+            t: [70.0, 90.0],
+            translation: Vector2::zeros(),
+            yaw: 0.0,
+        }];
+        assert_eq!(errors(&poses, &late).unwrap().0.count, 0);
+        let mut bare = poses.clone();
+        bare[3].orientation = None;
+        assert!(errors(&bare, &relations).is_none());
+    }
+
+    #[test]
+    fn a_relations_file_with_a_bad_line_is_refused_with_its_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.relations");
+        std::fs::write(&path, "1 2 0.1 0 0 0 0 0.2\n\n3 4 nan 0 0 0 0 0\n").unwrap();
+        let e = read(&path).unwrap_err();
+        assert!(e.contains(":3:"), "{e}");
+        std::fs::write(&path, "# t1 t2 x y z r p y\n1 2 0.1 0 0 0 0 0.2\n").unwrap();
+        let r = read(&path).unwrap();
+        assert_eq!(r.len(), 1);
+        assert_eq!(r[0].translation, Vector2::new(0.1, 0.0));
+        assert_eq!(r[0].yaw, 0.2);
+    }
+}
