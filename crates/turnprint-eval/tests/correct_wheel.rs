@@ -1,0 +1,51 @@
+//! Drift correction on a wheeled robot's dead reckoning, judged by the
+//! relations measured for its log (CARMEN ACES, `turnprint_eval::relations`;
+//! skipped when the shared data is absent, a failure under `CI=true`).
+
+use turnprint::correct::{correct, CorrectConfig};
+use turnprint::io::{read_trajectory, Format};
+use turnprint_eval::data::require;
+use turnprint_eval::relations::{errors, read};
+
+/// Regression: the CSV reader dropped the `theta` column, so a corrected
+/// wheel odometry came out with every heading the identity (ACES: mean
+/// heading error of its relations 2.2° -> 9.2°). Correction must keep the
+/// heading and do no harm where the log's relations measure it: the local
+/// motion and the revisits both stay within 5 % of the odometry's errors.
+#[test]
+fn correcting_wheel_odometry_keeps_its_heading_and_harms_no_measured_relation() {
+    let (Some(odometry), Some(measured)) = (
+        require("carmen/more/aces_odom.csv"),
+        require("carmen/more/aces.relations"),
+    ) else {
+        return;
+    };
+    let path = read_trajectory(&odometry, Format::Auto).unwrap();
+    let relations = read(&measured).unwrap();
+    let (all, revisits) = errors(&path.poses, &relations).expect("timed poses with headings");
+    assert_eq!(all.count, relations.len());
+    assert!(revisits.count >= 50, "{revisits:?}");
+    let corrected = correct(&path, &CorrectConfig::default()).unwrap();
+    assert!(corrected.kept() > 0, "no loop kept on ACES");
+    let (all_after, revisits_after) =
+        errors(&corrected.poses, &relations).expect("the corrected path keeps its headings");
+    for (name, before, after) in [
+        ("translation", all.translation, all_after.translation),
+        ("heading", all.rotation, all_after.rotation),
+        (
+            "revisits' translation",
+            revisits.translation,
+            revisits_after.translation,
+        ),
+        (
+            "revisits' heading",
+            revisits.rotation,
+            revisits_after.rotation,
+        ),
+    ] {
+        assert!(
+            after <= 1.05 * before,
+            "{name}: mean error {before} before, {after} after correction"
+        );
+    }
+}
