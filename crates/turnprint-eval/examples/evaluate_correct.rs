@@ -481,6 +481,34 @@ fn main() {
     }
 }
 
+/// `VERBOSE=1`: every loop of `c` on stderr, with the median of its
+/// misses against the relations that join its passes
+/// (`turnprint_eval::relations::loop_misses`).
+fn print_relation_loops(
+    c: &turnprint::correct::Corrected,
+    est: &Trajectory,
+    relations: &[turnprint_eval::relations::Relation],
+) {
+    for l in &c.loops {
+        let q = &l.closure;
+        let mut misses = turnprint_eval::relations::loop_misses(
+            &est.poses,
+            relations,
+            q.query_range,
+            q.match_range,
+            &q.query_T_match,
+        );
+        misses.sort_by(f64::total_cmp);
+        let median = misses
+            .get(misses.len() / 2)
+            .map_or("no relation".to_string(), |m| format!("{m:.2} m"));
+        eprintln!(
+            "  q {:?} m {:?} rev {} score {:.2} kept {}: {} relations between its passes, median miss {median}",
+            q.query_range, q.match_range, q.reversed, q.score, l.kept, misses.len()
+        );
+    }
+}
+
 /// Wheeled robots' dead reckoning (the CARMEN logs with measured
 /// relations beside them, `<log>.relations` and `<log>_odom.csv`): the
 /// relations' mean errors (`turnprint_eval::relations`) before and after
@@ -523,6 +551,9 @@ fn relations(dir: &Path) {
             for result in [correct(&est, &config()), streamed(&est)] {
                 match result.ok().and_then(|c| Some((errors(&c.poses, &rel)?, c))) {
                     Some(((a, r), c)) => {
+                        if std::env::var("VERBOSE").is_ok() {
+                            print_relation_loops(&c, &est, &rel);
+                        }
                         let kept = c.kept();
                         row += &format!(
                             " {} | {} | {} / {} |",

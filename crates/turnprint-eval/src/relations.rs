@@ -11,6 +11,9 @@
 //! their two poses is over [`REVISIT_DETOUR`] times as long as the distance
 //! between them and over [`REVISIT_SHARE`] of the whole path.
 
+// Frame names as in Sophus: `a_T_b` maps points from b to a.
+#![allow(non_snake_case)]
+
 use std::path::Path;
 
 use nalgebra::{Vector2, Vector3};
@@ -133,6 +136,47 @@ pub fn errors(poses: &[Pose], relations: &[Relation]) -> Option<(Errors, Errors)
     Some((all.mean(), revisits.mean()))
 }
 
+/// How far a loop misses where the relations between its passes put them:
+/// for each relation from a pose of `match_range` to a pose of
+/// `query_range` (each the pose nearest its time in `poses`, timed and in
+/// order), the distance from the query pose to where the loop's
+/// `query_T_match` and the measured motion place it. A right loop misses by
+/// the odometry's local error; a look-alike by the distance between the
+/// places it confuses. Empty where no relation joins the two ranges.
+pub fn loop_misses(
+    poses: &[Pose],
+    relations: &[Relation],
+    query_range: [usize; 2],
+    match_range: [usize; 2],
+    query_T_match: &turnprint::geometry::Similarity3,
+) -> Vec<f64> {
+    let Some(times) = poses.iter().map(|p| p.t).collect::<Option<Vec<f64>>>() else {
+        return Vec::new();
+    };
+    let nearest = |t: f64| {
+        let k = times
+            .partition_point(|x| *x < t)
+            .min(times.len().saturating_sub(1));
+        [k.saturating_sub(1), k]
+            .into_iter()
+            .min_by(|a, b| (times[*a] - t).abs().total_cmp(&(times[*b] - t).abs()))
+    };
+    let inside = |i: usize, r: [usize; 2]| i >= r[0] && i <= r[1];
+    relations
+        .iter()
+        .filter_map(|r| {
+            let (m, q) = (nearest(r.t[0])?, nearest(r.t[1])?);
+            if !inside(m, match_range) || !inside(q, query_range) {
+                return None;
+            }
+            let world_R_m = poses[m].orientation?;
+            let offset = world_R_m * Vector3::new(r.translation.x, r.translation.y, 0.0);
+            let placed = query_T_match.apply(&(poses[m].position + offset));
+            Some((placed - poses[q].position).norm())
+        })
+        .collect()
+}
+
 /// An angle in (-π, π].
 fn wrap(a: f64) -> f64 {
     let two_pi = std::f64::consts::TAU;
@@ -232,6 +276,27 @@ mod tests {
         let mut bare = poses.clone();
         bare[3].orientation = None;
         assert!(errors(&bare, &relations).is_none());
+    }
+
+    #[test]
+    fn a_loop_misses_by_how_far_it_moves_the_passes_off_their_relations() {
+        let poses = circle(81);
+        // Lap 2 (poses 40-80) lies on lap 1 (0-40): its relations say so.
+        let relation = |a: usize, b: usize| Relation {
+            t: [a as f64, b as f64],
+            translation: Vector2::zeros(),
+            yaw: 0.0,
+        };
+        let relations = vec![relation(5, 45), relation(12, 52), relation(3, 20)];
+        let identity = turnprint::geometry::Similarity3::identity();
+        let right = loop_misses(&poses, &relations, [41, 60], [1, 20], &identity);
+        assert_eq!(right.len(), 2, "only the relations joining the two passes");
+        assert!(right.iter().all(|m| *m < 1e-9), "{right:?}");
+        let mut shifted = identity;
+        shifted.translation.x = 0.5;
+        let off = loop_misses(&poses, &relations, [41, 60], [1, 20], &shifted);
+        assert!(off.iter().all(|m| (m - 0.5).abs() < 1e-9), "{off:?}");
+        assert!(loop_misses(&poses, &relations, [61, 80], [21, 39], &identity).is_empty());
     }
 
     #[test]
