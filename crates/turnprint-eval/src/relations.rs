@@ -101,17 +101,7 @@ pub fn errors(poses: &[Pose], relations: &[Relation]) -> Option<(Errors, Errors)
     let total = arc.last().copied().unwrap_or(0.0);
     // Pose at time t: positions and (unwrapped) headings interpolated.
     let at = |t: f64| -> Option<(Vector2<f64>, f64, f64)> {
-        if times.is_empty() || t < times[0] || t > times[times.len() - 1] {
-            return None;
-        }
-        let k = times.partition_point(|x| *x < t).clamp(1, times.len() - 1);
-        let (a, b) = (k - 1, k);
-        let span = times[b] - times[a];
-        let w = if span > 0.0 {
-            ((t - times[a]) / span).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let (a, b, w) = bracket(&times, t)?;
         let p = poses[a].position.lerp(&poses[b].position, w);
         let turn = wrap(yaws[b] - yaws[a]);
         Some((p.xy(), yaws[a] + w * turn, arc[a] + w * (arc[b] - arc[a])))
@@ -153,14 +143,7 @@ pub fn loop_misses(
     let Some(times) = poses.iter().map(|p| p.t).collect::<Option<Vec<f64>>>() else {
         return Vec::new();
     };
-    let nearest = |t: f64| {
-        let k = times
-            .partition_point(|x| *x < t)
-            .min(times.len().saturating_sub(1));
-        [k.saturating_sub(1), k]
-            .into_iter()
-            .min_by(|a, b| (times[*a] - t).abs().total_cmp(&(times[*b] - t).abs()))
-    };
+    let nearest = |t: f64| bracket(&times, t).map(|(a, b, w)| if w < 0.5 { a } else { b });
     let inside = |i: usize, r: [usize; 2]| i >= r[0] && i <= r[1];
     relations
         .iter()
@@ -175,6 +158,28 @@ pub fn loop_misses(
             Some((placed - poses[q].position).norm())
         })
         .collect()
+}
+
+/// Where time `t` falls among increasing `times`: the poses before and
+/// after it and its fraction of the way between them; `None` outside their
+/// span.
+fn bracket(times: &[f64], t: f64) -> Option<(usize, usize, f64)> {
+    let (first, last) = (*times.first()?, *times.last()?);
+    if t < first || t > last {
+        return None;
+    }
+    let b = times
+        .partition_point(|x| *x < t)
+        .max(1)
+        .min(times.len() - 1);
+    let a = b.saturating_sub(1);
+    let span = times[b] - times[a];
+    let w = if span > 0.0 {
+        ((t - times[a]) / span).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    Some((a, b, w))
 }
 
 /// An angle in (-π, π].
@@ -243,10 +248,7 @@ mod tests {
             let (pa, pb) = (&poses[a], &poses[b]);
             let qa = pa.orientation.unwrap();
             let local = qa.inverse() * (pb.position - pa.position);
-            let yaw = (qa.inverse() * pb.orientation.unwrap()).angle()
-                * (qa.inverse() * pb.orientation.unwrap())
-                    .axis()
-                    .map_or(1.0, |ax| ax.z.signum());
+            let yaw = (qa.inverse() * pb.orientation.unwrap()).euler_angles().2;
             Relation {
                 t: [a as f64, b as f64],
                 translation: local.xy(),
@@ -276,6 +278,26 @@ mod tests {
         let mut bare = poses.clone();
         bare[3].orientation = None;
         assert!(errors(&bare, &relations).is_none());
+    }
+
+    /// Regression: a path of one pose panicked on a relation at its time
+    /// (the pair of poses around a time was sought among one).
+    #[test]
+    fn a_path_of_one_pose_judges_a_relation_at_its_time_without_panicking() {
+        let poses = circle(1);
+        let relations = vec![Relation {
+            t: [0.0, 0.0],
+            translation: Vector2::zeros(),
+            yaw: 0.0,
+        }];
+        let (all, revisits) = errors(&poses, &relations).unwrap();
+        assert_eq!((all.count, revisits.count), (1, 0));
+        assert!(all.translation == 0.0 && all.rotation == 0.0, "{all:?}");
+        let identity = turnprint::geometry::Similarity3::identity();
+        assert_eq!(
+            loop_misses(&poses, &relations, [0, 0], [0, 0], &identity),
+            vec![0.0]
+        );
     }
 
     #[test]
