@@ -491,13 +491,16 @@ fn print_relation_loops(
 ) {
     for l in &c.loops {
         let q = &l.closure;
-        let mut misses = turnprint_eval::relations::loop_misses(
+        let mut misses: Vec<f64> = turnprint_eval::relations::loop_misses(
             &est.poses,
             relations,
             q.query_range,
             q.match_range,
             &q.query_T_match,
-        );
+        )
+        .into_iter()
+        .map(|(_, m)| m)
+        .collect();
         misses.sort_by(f64::total_cmp);
         let median = misses
             .get(misses.len() / 2)

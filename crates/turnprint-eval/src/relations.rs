@@ -8,8 +8,8 @@
 //! between the two times (the second pose in the first one's frame) and the
 //! measured motion: its translation's length and its heading's absolute
 //! angle. Revisits are the relations that close a loop: the path between
-//! their two poses is over [`REVISIT_DETOUR`] times as long as the distance
-//! between them and over [`REVISIT_SHARE`] of the whole path.
+//! their two poses is over [`REVISIT_DETOUR`] times as long as the measured
+//! distance between them and over [`REVISIT_SHARE`] of the whole path.
 
 // Frame names as in Sophus: `a_T_b` maps points from b to a.
 #![allow(non_snake_case)]
@@ -118,8 +118,7 @@ pub fn errors(poses: &[Pose], relations: &[Relation]) -> Option<(Errors, Errors)
         let et = (local - r.translation).norm();
         let er = wrap(y2 - y1 - r.yaw).abs();
         all.add(et, er);
-        let path = (s2 - s1).abs();
-        if path > REVISIT_DETOUR * d.norm() && path > REVISIT_SHARE * total {
+        if is_revisit(s2 - s1, r.translation.norm(), total) {
             revisits.add(et, er);
         }
     }
@@ -129,35 +128,137 @@ pub fn errors(poses: &[Pose], relations: &[Relation]) -> Option<(Errors, Errors)
 /// How far a loop misses where the relations between its passes put them:
 /// for each relation from a pose of `match_range` to a pose of
 /// `query_range` (each the pose nearest its time in `poses`, timed and in
-/// order), the distance from the query pose to where the loop's
-/// `query_T_match` and the measured motion place it. A right loop misses by
-/// the odometry's local error; a look-alike by the distance between the
-/// places it confuses. Empty where no relation joins the two ranges.
+/// order), its index and the distance from where the loop's
+/// `query_T_match` and the measured motion place the query pose to the
+/// nearest pose of the query pass. Nearest, not the relation's own: along
+/// a straight a loop fixes no position along the road (the pose graph
+/// leaves it free there), only across it. A right loop misses by the
+/// odometry's local error; a look-alike by the distance between the places
+/// it confuses. Empty where no relation joins the two ranges.
 pub fn loop_misses(
     poses: &[Pose],
     relations: &[Relation],
     query_range: [usize; 2],
     match_range: [usize; 2],
     query_T_match: &turnprint::geometry::Similarity3,
-) -> Vec<f64> {
-    let Some(times) = poses.iter().map(|p| p.t).collect::<Option<Vec<f64>>>() else {
+) -> Vec<(usize, f64)> {
+    let Some(nearest) = Nearest::new(poses) else {
         return Vec::new();
     };
-    let nearest = |t: f64| bracket(&times, t).map(|(a, b, w)| if w < 0.5 { a } else { b });
     let inside = |i: usize, r: [usize; 2]| i >= r[0] && i <= r[1];
     relations
         .iter()
-        .filter_map(|r| {
-            let (m, q) = (nearest(r.t[0])?, nearest(r.t[1])?);
+        .enumerate()
+        .filter_map(|(k, r)| {
+            let [m, q] = nearest.pair(r)?;
             if !inside(m, match_range) || !inside(q, query_range) {
                 return None;
             }
             let world_R_m = poses[m].orientation?;
             let offset = world_R_m * Vector3::new(r.translation.x, r.translation.y, 0.0);
             let placed = query_T_match.apply(&(poses[m].position + offset));
-            Some((placed - poses[q].position).norm())
+            let miss = poses[query_range[0]..=query_range[1].min(poses.len() - 1)]
+                .iter()
+                .map(|p| (placed - p.position).norm())
+                .fold(f64::INFINITY, f64::min);
+            Some((k, miss))
         })
         .collect()
+}
+
+/// A place revisited, as the relations measured it: revisits (module doc)
+/// whose later poses follow one another and whose earlier poses lie
+/// together.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RevisitEvent {
+    /// The later pass: first and last pose a relation names.
+    pub query: [usize; 2],
+    /// The earlier pass: first and last pose a relation names.
+    pub matched: [usize; 2],
+    /// Indices of its relations.
+    pub relations: Vec<usize>,
+}
+
+/// The revisit events of `poses` (timed, in time order): the revisits among
+/// `relations`, each from the pose nearest its first time to the pose
+/// nearest its second, taken in order of their later pose; one joins an
+/// event when its later pose is at most `join` of road past the event's
+/// last later pose and its earlier pose within `join` of road of the
+/// event's earlier pass. A revisit is judged on the measured distance
+/// between its poses, so that drift does not make or unmake one, and
+/// must have at least `apart` of road between its poses.
+pub fn revisit_events(
+    poses: &[Pose],
+    relations: &[Relation],
+    join: f64,
+    apart: f64,
+) -> Vec<RevisitEvent> {
+    let Some(nearest) = Nearest::new(poses) else {
+        return Vec::new();
+    };
+    let positions: Vec<Vector3<f64>> = poses.iter().map(|p| p.position).collect();
+    let arc = crate::revisits::arc_lengths(&positions);
+    let total = arc.last().copied().unwrap_or(0.0);
+    let mut revisits: Vec<(usize, usize, usize)> = relations
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| {
+            let [a, b] = nearest.pair(r)?;
+            let (m, q) = (a.min(b), a.max(b));
+            let path = arc[q] - arc[m];
+            (is_revisit(path, r.translation.norm(), total) && path >= apart).then_some((q, m, k))
+        })
+        .collect();
+    revisits.sort();
+    let mut events: Vec<RevisitEvent> = Vec::new();
+    for (q, m, k) in revisits {
+        let joins = |e: &RevisitEvent| {
+            arc[q] - arc[e.query[1]] <= join
+                && arc[m] >= arc[e.matched[0]] - join
+                && arc[m] <= arc[e.matched[1]] + join
+        };
+        match events.iter_mut().find(|e| joins(e)) {
+            Some(e) => {
+                e.query[1] = q;
+                e.matched = [e.matched[0].min(m), e.matched[1].max(m)];
+                e.relations.push(k);
+            }
+            None => events.push(RevisitEvent {
+                query: [q, q],
+                matched: [m, m],
+                relations: vec![k],
+            }),
+        }
+    }
+    events
+}
+
+/// Whether a relation closes a loop: the path between its poses is over
+/// [`REVISIT_DETOUR`] times their distance and over [`REVISIT_SHARE`] of
+/// the whole path.
+fn is_revisit(path_between: f64, distance: f64, total: f64) -> bool {
+    let path = path_between.abs();
+    path > REVISIT_DETOUR * distance && path > REVISIT_SHARE * total
+}
+
+/// The pose nearest a time, among timed poses.
+struct Nearest(Vec<f64>);
+
+impl Nearest {
+    /// `None` when a pose has no time.
+    fn new(poses: &[Pose]) -> Option<Self> {
+        poses
+            .iter()
+            .map(|p| p.t)
+            .collect::<Option<_>>()
+            .map(Nearest)
+    }
+
+    /// The poses nearest a relation's two times; `None` outside the span.
+    fn pair(&self, r: &Relation) -> Option<[usize; 2]> {
+        let at = |t: f64| bracket(&self.0, t).map(|(a, b, w)| if w < 0.5 { a } else { b });
+        Some([at(r.t[0])?, at(r.t[1])?])
+    }
 }
 
 /// Where time `t` falls among increasing `times`: the poses before and
@@ -296,8 +397,9 @@ mod tests {
         let identity = turnprint::geometry::Similarity3::identity();
         assert_eq!(
             loop_misses(&poses, &relations, [0, 0], [0, 0], &identity),
-            vec![0.0]
+            vec![(0, 0.0)]
         );
+        assert!(revisit_events(&poses, &relations, 1.0, 0.0).is_empty());
     }
 
     #[test]
@@ -312,13 +414,73 @@ mod tests {
         let relations = vec![relation(5, 45), relation(12, 52), relation(3, 20)];
         let identity = turnprint::geometry::Similarity3::identity();
         let right = loop_misses(&poses, &relations, [41, 60], [1, 20], &identity);
-        assert_eq!(right.len(), 2, "only the relations joining the two passes");
-        assert!(right.iter().all(|m| *m < 1e-9), "{right:?}");
+        assert_eq!(
+            right.iter().map(|m| m.0).collect::<Vec<_>>(),
+            vec![0, 1],
+            "only the relations joining the two passes"
+        );
+        assert!(right.iter().all(|m| m.1 < 1e-9), "{right:?}");
+        // Scaled 1.5 about the centre: each placed pose lies 0.5 outside
+        // the query pass.
         let mut shifted = identity;
-        shifted.translation.x = 0.5;
+        shifted.scale = 1.5;
         let off = loop_misses(&poses, &relations, [41, 60], [1, 20], &shifted);
-        assert!(off.iter().all(|m| (m - 0.5).abs() < 1e-9), "{off:?}");
+        assert!(off.iter().all(|m| (m.1 - 0.5).abs() < 1e-9), "{off:?}");
+        // Turned by two poses' angle about the centre: slid along the road,
+        // which a loop does not fix, so no miss.
+        let slid = turnprint::geometry::Similarity3 {
+            rotation: *nalgebra::Rotation3::from_axis_angle(
+                &Vector3::z_axis(),
+                2.0 * std::f64::consts::TAU / 40.0,
+            )
+            .matrix(),
+            ..identity
+        };
+        let along = loop_misses(&poses, &relations, [41, 60], [1, 20], &slid);
+        assert!(along.iter().all(|m| m.1 < 1e-9), "{along:?}");
         assert!(loop_misses(&poses, &relations, [61, 80], [21, 39], &identity).is_empty());
+    }
+
+    #[test]
+    fn revisits_that_follow_one_another_make_one_event_and_local_relations_none() {
+        // Three laps of a circle (0.157 of road per pose).
+        let poses = circle(121);
+        let relation = |a: usize, b: usize| {
+            let (pa, pb) = (&poses[a], &poses[b]);
+            let qa = pa.orientation.unwrap();
+            Relation {
+                t: [a as f64, b as f64],
+                translation: (qa.inverse() * (pb.position - pa.position)).xy(),
+                yaw: 0.0,
+            }
+        };
+        let relations = vec![
+            relation(5, 45),
+            relation(3, 20), // along the path: no revisit
+            relation(6, 46),
+            relation(7, 47),
+            relation(25, 105), // two laps back, elsewhere
+        ];
+        let events = revisit_events(&poses, &relations, 0.5, 1.0);
+        assert_eq!(
+            events,
+            vec![
+                RevisitEvent {
+                    query: [45, 47],
+                    matched: [5, 7],
+                    relations: vec![0, 2, 3],
+                },
+                RevisitEvent {
+                    query: [105, 105],
+                    matched: [25, 25],
+                    relations: vec![4],
+                },
+            ]
+        );
+        // Passes must be `apart` of road apart: one lap is 6.28.
+        let far = revisit_events(&poses, &relations, 0.5, 10.0);
+        assert_eq!(far.len(), 1);
+        assert_eq!(far[0].relations, vec![4]);
     }
 
     #[test]

@@ -4,13 +4,14 @@
 //! estimate. Files that are absent or unreadable are listed, not fatal.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use nalgebra::Vector3;
 
 use super::{Kind, MAX_POSES};
 use crate::data::{load_sequence, Sourced};
 use turnprint::io::{self, geodetic_to_enu, Format, Geodetic};
-use turnprint::Trajectory;
+use turnprint::{Pose, Trajectory};
 
 /// One recorded path and its truth.
 #[derive(Debug, Clone)]
@@ -33,6 +34,19 @@ pub struct Session {
     /// reckoning is its own "truth" (windows of one log share its frame),
     /// which judges merges of its windows but not its loops.
     pub judged: bool,
+    /// Measured relations that judge the loops of a session without a true
+    /// path (`<log>.relations` beside a CARMEN log's `<log>_odom.csv`).
+    pub relations: Option<Arc<Measured>>,
+}
+
+/// A log's measured relations and the poses they are read against.
+#[derive(Debug)]
+pub struct Measured {
+    /// The log's poses, thinned as its input (pose i is input pose i), with
+    /// their times and headings.
+    pub poses: Vec<Pose>,
+    /// The relations (`crate::relations`).
+    pub relations: Vec<crate::relations::Relation>,
 }
 
 impl Session {
@@ -51,6 +65,7 @@ impl Session {
             truth: input.clone(),
             input,
             judged: true,
+            relations: None,
         }
         .thinned()
     }
@@ -71,19 +86,31 @@ impl Session {
             input,
             truth,
             judged: true,
+            relations: None,
         }
         .thinned()
     }
 
+    /// Its loops can be judged: by a true path or by measured relations.
+    pub fn loops_judged(&self) -> bool {
+        self.judged || self.relations.is_some()
+    }
+
     /// Every k-th pose, so that at most [`MAX_POSES`] remain.
     fn thinned(mut self) -> Self {
-        let k = self.input.len().div_ceil(MAX_POSES).max(1);
+        let k = thinning(self.input.len());
         if k > 1 {
             self.input = self.input.iter().step_by(k).copied().collect();
             self.truth = self.truth.iter().step_by(k).copied().collect();
         }
         self
     }
+}
+
+/// Every how many poses a session of `n` keeps one: at most [`MAX_POSES`]
+/// remain.
+fn thinning(n: usize) -> usize {
+    n.div_ceil(MAX_POSES).max(1)
 }
 
 /// What the catalog found: the sessions, and the files it could not use
@@ -112,6 +139,26 @@ impl Catalog {
             }
             Err(e) => {
                 self.skipped.push((rel.to_string(), e.to_string()));
+                None
+            }
+        }
+    }
+
+    /// The relations measured for the log `rel` (`<log>_odom.csv`), read
+    /// from `<log>.relations` beside it; `None` where there is none (or it
+    /// is unreadable: listed as skipped).
+    fn relations_beside(&mut self, dir: &Path, rel: &str, t: &Trajectory) -> Option<Arc<Measured>> {
+        let file = dir.join(rel.strip_suffix("_odom.csv")?.to_string() + ".relations");
+        if !file.exists() {
+            return None;
+        }
+        match crate::relations::read(&file) {
+            Ok(relations) => Some(Arc::new(Measured {
+                poses: t.poses.iter().step_by(thinning(t.len())).cloned().collect(),
+                relations,
+            })),
+            Err(e) => {
+                self.skipped.push((file.display().to_string(), e));
                 None
             }
         }
@@ -250,6 +297,7 @@ pub fn catalog(dir: &Path) -> Catalog {
         if let Some(t) = c.read(dir, rel) {
             let mut s = Session::new(Kind::Wheeled, format!("carmen {name}"), None, t.positions());
             s.judged = false;
+            s.relations = c.relations_beside(dir, rel, &t);
             c.sessions.push(s);
         }
     }

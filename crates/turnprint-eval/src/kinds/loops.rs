@@ -10,6 +10,14 @@
 //! log-scale 0.15 at the end, signs drawn: a miscalibrated wheel base, a
 //! monocular VO's growing scale). Every input is put under a random
 //! similarity.
+//!
+//! A log without a true path but with measured relations (CARMEN ACES) is
+//! judged by them: its revisit events are the relations that close loops
+//! ([`revisit_events`]), and a loop is right when the relations joining its
+//! passes agree with its similarity ([`loop_misses`]).
+
+// Frame names as in Sophus: `a_T_b` maps points from b to a.
+#![allow(non_snake_case)]
 
 use std::time::Instant;
 
@@ -17,14 +25,17 @@ use nalgebra::Vector3;
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use serde::Serialize;
 
+use super::catalog::Measured;
 use super::{extent, Kind, Session, EVENT_MIN_RADII, LOOP_RADII, REVISIT_GAP, REVISIT_RADIUS};
 use crate::baseline::Naive;
 use crate::checks::{loop_correct_apart, median, LoopClaim};
 use crate::drift::{DriftBias, DriftModel};
 use crate::loops::{covered, query_range, TOP_K};
+use crate::relations::{loop_misses, revisit_events, RevisitEvent};
 use crate::revisits::{arc_lengths, events, nearest_earlier_apart, true_offset, Event};
 use crate::similarity::random_similarity;
 use crate::EVENT_MAX_GAP;
+use turnprint::geometry::Similarity3;
 use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint::pipeline::{find_loops, Config};
 use turnprint::Trajectory;
@@ -149,27 +160,22 @@ pub fn truth_events(truth: &[Vector3<f64>]) -> (Vec<Event>, f64) {
     )
 }
 
-/// The inputs a session is run with.
+/// The inputs a session is run with: a reference as it is and under both
+/// drift models; an estimate (or a log judged by its relations, which
+/// hold for its own poses only) as recorded.
 pub fn inputs(s: &Session) -> Vec<Input> {
-    match s.input == s.truth {
+    match s.input == s.truth && s.relations.is_none() {
         true => vec![Input::Truth, Input::Walk, Input::Bias],
         false => vec![Input::Estimate],
     }
 }
 
 /// Runs both methods (and the online detector when `online`) on one
-/// session and input; `None` when the session is not judged or its truth
+/// session and input; `None` when the session's loops are not judged or it
 /// has no revisit event.
 pub fn run(s: &Session, input: Input, seed: u64, online: bool) -> Option<LoopRun> {
-    if !s.judged {
-        return None;
-    }
-    let (events, radius) = truth_events(&s.truth);
-    if events.is_empty() {
-        return None;
-    }
-    let arc = arc_lengths(&s.truth);
-    let positions = input_positions(s, input, seed);
+    let (positions, input_T_session) = input_positions(s, input, seed);
+    let referee = Referee::new(s, input_T_session)?;
 
     let mut config = Config::for_loops();
     // The first ten of the ranked fifty are the top ten (ranking keeps the
@@ -179,30 +185,35 @@ pub fn run(s: &Session, input: Input, seed: u64, online: bool) -> Option<LoopRun
     let found = find_loops(&Trajectory::from_positions(&s.name, &positions), &config);
     let seconds = start.elapsed().as_secs_f64();
     let (mut claims, error) = match found {
-        Ok(h) => (h.iter().map(LoopClaim::from).collect::<Vec<_>>(), None),
+        Ok(h) => (
+            h.iter()
+                .map(|h| (LoopClaim::from(h), h.similarity()))
+                .collect::<Vec<_>>(),
+            None,
+        ),
         Err(e) => (Vec::new(), Some(e.to_string())),
     };
-    claims.sort_by(|x, y| y.score.total_cmp(&x.score));
+    claims.sort_by(|x, y| y.0.score.total_cmp(&x.0.score));
     let wide = claims.clone();
     claims.truncate(TOP_K);
-    // The naive loops are sorted and cut too: its first ten are its top ten.
-    let naive_wide = naive(&s.truth, radius, WIDE_K).loops(&positions);
+    // The naive loops are sorted and cut too: its first ten are its top
+    // ten. Each claims its passes coincide where the input has them.
+    let naive_wide: Vec<(LoopClaim, Similarity3)> = naive(&s.truth, referee.radius(), WIDE_K)
+        .loops(&positions)
+        .into_iter()
+        .map(|c| (c, Similarity3::identity()))
+        .collect();
     let naive = &naive_wide[..naive_wide.len().min(TOP_K)];
 
-    let judge = |c: &[LoopClaim]| judge(c, &s.truth, &arc, &events, radius);
-    let (t, n) = (judge(&claims), judge(naive));
-    let covered_wide = [judge(&wide).0, judge(&naive_wide).0];
-    let offset = |c: &LoopClaim| true_offset(c.query, c.matched, &s.truth) / radius;
-    let online = online.then(|| run_online(&positions, judge, offset));
+    let (t, n) = (referee.judge(&claims), referee.judge(naive));
+    let covered_wide = [referee.judge(&wide).0, referee.judge(&naive_wide).0];
+    let online = online.then(|| run_online(&positions, &referee));
     Some(LoopRun {
         kind: s.kind,
         session: s.name.clone(),
         input,
-        events: events.len(),
-        event_ranges: events
-            .iter()
-            .map(|e| [e.first, e.last, e.match_first, e.match_last])
-            .collect(),
+        events: referee.event_ranges().len(),
+        event_ranges: referee.event_ranges(),
         covered: [t.0, n.0],
         covered_wide,
         rank1_correct: [t.3.first() == Some(&true), n.3.first() == Some(&true)],
@@ -211,7 +222,7 @@ pub fn run(s: &Session, input: Input, seed: u64, online: bool) -> Option<LoopRun
         loops: claims
             .iter()
             .zip(&t.3)
-            .map(|(c, ok)| (*c, *ok, offset(c)))
+            .map(|(c, ok)| (c.0, *ok, referee.offset(c)))
             .collect(),
         seconds,
         error,
@@ -220,8 +231,9 @@ pub fn run(s: &Session, input: Input, seed: u64, online: bool) -> Option<LoopRun
 }
 
 /// The input a loop run is given: the estimate, or the truth as it is,
-/// under a random walk or under a bias; then under a random similarity.
-fn input_positions(s: &Session, input: Input, seed: u64) -> Vec<Vector3<f64>> {
+/// under a random walk or under a bias; then under a random similarity,
+/// returned beside it (`input_T_session`).
+fn input_positions(s: &Session, input: Input, seed: u64) -> (Vec<Vector3<f64>>, Similarity3) {
     let mut rng = StdRng::seed_from_u64(seed);
     let length = arc_lengths(&s.truth).last().copied().unwrap_or(0.0);
     let positions = match input {
@@ -239,17 +251,13 @@ fn input_positions(s: &Session, input: Input, seed: u64) -> Vec<Vector3<f64>> {
         }
     };
     let sim = random_similarity(&mut rng, extent(&positions).max(f64::MIN_POSITIVE));
-    positions.iter().map(|p| sim.apply(p)).collect()
+    (positions.iter().map(|p| sim.apply(p)).collect(), sim)
 }
 
 /// Replays `positions` through the online detector, one pose at a time
 /// (the caller waits for the matcher, so the candidates do not depend on
 /// timing), and judges every candidate.
-fn run_online(
-    positions: &[Vector3<f64>],
-    judge: impl Fn(&[LoopClaim]) -> (usize, usize, usize, Vec<bool>),
-    offset: impl Fn(&LoopClaim) -> f64,
-) -> OnlineRun {
+fn run_online(positions: &[Vector3<f64>], referee: &Referee) -> OnlineRun {
     let start = Instant::now();
     let mut detector = Detector::new(OnlineConfig::default(), Overflow::Block);
     let mut events = Vec::new();
@@ -259,42 +267,234 @@ fn run_online(
     }
     events.extend(detector.finish().0);
     let seconds = start.elapsed().as_secs_f64();
-    let claims: Vec<LoopClaim> = events.iter().map(|e| (&e.hypothesis).into()).collect();
-    let (covered, _, _, ok) = judge(&claims);
+    let claims: Vec<(LoopClaim, Similarity3)> = events
+        .iter()
+        .map(|e| ((&e.hypothesis).into(), e.hypothesis.similarity()))
+        .collect();
+    let (covered, _, _, ok) = referee.judge(&claims);
     OnlineRun {
         covered,
         claims: claims
-            .into_iter()
+            .iter()
             .zip(ok)
             .zip(&events)
-            .map(|((c, ok), e)| (c, ok, offset(&c), e.source.name().to_string()))
+            .map(|((c, ok), e)| (c.0, ok, referee.offset(c), e.source.name().to_string()))
             .collect(),
         seconds,
     }
 }
 
-/// Scores ranked claims on a truth (`arc`: its cumulative length): the events a correct claim's query
-/// range touches, the claims, the correct ones, each claim's verdict. A
-/// claim is judged by [`loop_correct_apart`] with the revisit gap, so that
-/// the laps of a circuit flown again and again count.
-fn judge(
-    claims: &[LoopClaim],
-    truth: &[Vector3<f64>],
-    arc: &[f64],
-    events: &[Event],
-    radius: f64,
-) -> (usize, usize, usize, Vec<bool>) {
-    let gap = REVISIT_GAP * arc.last().copied().unwrap_or(0.0);
-    let ok: Vec<bool> = claims
-        .iter()
-        .map(|c| loop_correct_apart(c, truth, arc, LOOP_RADII * radius, gap))
-        .collect();
-    let ranges: Vec<[f64; 2]> = claims
-        .iter()
-        .map(|c| query_range(c).map(|i| i as f64))
-        .collect();
-    let correct = ok.iter().filter(|x| **x).count();
-    (covered(&ranges, &ok, events), claims.len(), correct, ok)
+/// What judges a session's loops, each claim with its similarity in the
+/// input's frame (`query_T_match`).
+enum Referee<'a> {
+    /// The true path: a claim is judged by [`loop_correct_apart`] with the
+    /// revisit gap, so that the laps of a circuit flown again and again
+    /// count.
+    Truth {
+        truth: &'a [Vector3<f64>],
+        /// Cumulative length of the truth.
+        arc: Vec<f64>,
+        events: Vec<Event>,
+        radius: f64,
+    },
+    /// Measured relations ([`crate::relations`]), read against the log's
+    /// own poses: a claim is right when the relations joining its passes
+    /// place its query poses within [`LOOP_RADII`] revisit radii of where
+    /// its similarity puts them (median); a claim no relation joins is
+    /// counted wrong, as nothing shows it right. Only revisits judge, so
+    /// that a claim pairing a stretch with its neighbourhood is not
+    /// called right by the odometry's own motion. Relations are sparse
+    /// (where the reference SLAM closed a loop), so a claim's passes are
+    /// widened by `join` of road each way, the distance within which
+    /// relations make one event.
+    Relations {
+        measured: &'a Measured,
+        /// Cumulative length of the log.
+        arc: Vec<f64>,
+        /// The relations that close a loop (those of the events).
+        revisit: Vec<bool>,
+        events: Vec<RevisitEvent>,
+        radius: f64,
+        join: f64,
+        input_T_session: Similarity3,
+    },
+}
+
+impl<'a> Referee<'a> {
+    /// `None` when nothing judges the session's loops or it revisits
+    /// nothing.
+    fn new(s: &'a Session, input_T_session: Similarity3) -> Option<Self> {
+        let referee = if let Some(measured) = s.relations.as_deref() {
+            // The relations' units are the log's: its revisit radius is
+            // taken from its own extent, as a truth's is.
+            let radius = REVISIT_RADIUS * extent(&s.input);
+            let join = EVENT_MIN_RADII * radius;
+            let arc = arc_lengths(&s.input);
+            // A revisit as the truth's rules have it: passes at least the
+            // revisit gap of road apart.
+            let apart = REVISIT_GAP * arc.last().copied().unwrap_or(0.0);
+            let events = revisit_events(&measured.poses, &measured.relations, join, apart);
+            let mut revisit = vec![false; measured.relations.len()];
+            for k in events.iter().flat_map(|e| &e.relations) {
+                revisit[*k] = true;
+            }
+            Referee::Relations {
+                measured,
+                arc,
+                revisit,
+                events,
+                radius,
+                join,
+                input_T_session,
+            }
+        } else if s.judged {
+            let (events, radius) = truth_events(&s.truth);
+            Referee::Truth {
+                truth: &s.truth,
+                arc: arc_lengths(&s.truth),
+                events,
+                radius,
+            }
+        } else {
+            return None;
+        };
+        (!referee.event_ranges().is_empty()).then_some(referee)
+    }
+
+    fn radius(&self) -> f64 {
+        match self {
+            Referee::Truth { radius, .. } | Referee::Relations { radius, .. } => *radius,
+        }
+    }
+
+    /// Each event's revisiting poses and the earlier poses they match.
+    fn event_ranges(&self) -> Vec<[usize; 4]> {
+        match self {
+            Referee::Truth { events, .. } => events
+                .iter()
+                .map(|e| [e.first, e.last, e.match_first, e.match_last])
+                .collect(),
+            Referee::Relations { events, .. } => events
+                .iter()
+                .map(|e| [e.query[0], e.query[1], e.matched[0], e.matched[1]])
+                .collect(),
+        }
+    }
+
+    /// The relations joining a claim's passes and how far it misses each,
+    /// in the log's units (relations only).
+    fn misses(&self, (c, input_T): &(LoopClaim, Similarity3)) -> Vec<(usize, f64)> {
+        let Referee::Relations {
+            measured,
+            arc,
+            revisit,
+            join,
+            input_T_session,
+            ..
+        } = self
+        else {
+            return Vec::new();
+        };
+        // The claim's similarity in the log's frame: back from the input's
+        // frame, the similarity, into the input's frame again.
+        let session_T = input_T_session
+            .inverse()
+            .compose(input_T)
+            .compose(input_T_session);
+        let matched = [
+            c.matched[0].min(c.matched[1]),
+            c.matched[0].max(c.matched[1]),
+        ];
+        loop_misses(
+            &measured.poses,
+            &measured.relations,
+            widened(arc, query_range(c), *join),
+            widened(arc, matched, *join),
+            &session_T,
+        )
+        .into_iter()
+        .filter(|(k, _)| revisit[*k])
+        .collect()
+    }
+
+    /// The true median offset between a claim's passes in revisit radii
+    /// (relations: its median miss; NaN where none joins it).
+    fn offset(&self, claim: &(LoopClaim, Similarity3)) -> f64 {
+        match self {
+            Referee::Truth { truth, radius, .. } => {
+                true_offset(claim.0.query, claim.0.matched, truth) / radius
+            }
+            Referee::Relations { radius, .. } => {
+                let mut m: Vec<f64> = self.misses(claim).into_iter().map(|m| m.1).collect();
+                m.sort_by(f64::total_cmp);
+                m.get(m.len() / 2).map_or(f64::NAN, |m| m / radius)
+            }
+        }
+    }
+
+    /// Scores ranked claims: the events a correct claim touches (truth: its
+    /// query range; relations: one of the event's relations joins its
+    /// passes), the claims, the correct ones, each claim's verdict.
+    fn judge(&self, claims: &[(LoopClaim, Similarity3)]) -> (usize, usize, usize, Vec<bool>) {
+        let (covered, ok) = match self {
+            Referee::Truth {
+                truth,
+                arc,
+                events,
+                radius,
+            } => {
+                let gap = REVISIT_GAP * arc.last().copied().unwrap_or(0.0);
+                let ok: Vec<bool> = claims
+                    .iter()
+                    .map(|c| loop_correct_apart(&c.0, truth, arc, LOOP_RADII * radius, gap))
+                    .collect();
+                let ranges: Vec<[f64; 2]> = claims
+                    .iter()
+                    .map(|c| query_range(&c.0).map(|i| i as f64))
+                    .collect();
+                (covered(&ranges, &ok, events), ok)
+            }
+            Referee::Relations { events, radius, .. } => {
+                let mut joined: Vec<usize> = Vec::new();
+                let ok: Vec<bool> = claims
+                    .iter()
+                    .map(|c| {
+                        let misses = self.misses(c);
+                        let mut m: Vec<f64> = misses.iter().map(|m| m.1).collect();
+                        m.sort_by(f64::total_cmp);
+                        let right = m
+                            .get(m.len() / 2)
+                            .is_some_and(|m| *m <= LOOP_RADII * radius);
+                        if right {
+                            joined.extend(misses.iter().map(|m| m.0));
+                        }
+                        right
+                    })
+                    .collect();
+                let covered = events
+                    .iter()
+                    .filter(|e| e.relations.iter().any(|r| joined.contains(r)))
+                    .count();
+                (covered, ok)
+            }
+        };
+        let correct = ok.iter().filter(|x| **x).count();
+        (covered, claims.len(), correct, ok)
+    }
+}
+
+/// The poses of `range` and those within `margin` of road beyond either
+/// end (`arc`: cumulative length).
+fn widened(arc: &[f64], [a, b]: [usize; 2], margin: f64) -> [usize; 2] {
+    let (Some(start), Some(end)) = (arc.get(a), arc.get(b)) else {
+        return [a, b];
+    };
+    [
+        arc.partition_point(|s| *s < start - margin),
+        arc.partition_point(|s| *s <= end + margin)
+            .saturating_sub(1)
+            .max(b),
+    ]
 }
 
 /// The naive baseline with the revisit rules of the truth: a match at
@@ -317,6 +517,9 @@ fn naive(truth: &[Vector3<f64>], radius: f64, top_k: usize) -> Naive {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::relations::Relation;
+    use nalgebra::{UnitQuaternion, Vector2};
+    use turnprint::Pose;
 
     #[test]
     fn the_online_replay_is_judged_like_the_loops() {
@@ -333,6 +536,7 @@ mod tests {
             input: path.clone(),
             truth: path,
             judged: true,
+            relations: None,
         };
         let r = run(&s, Input::Truth, 1, true).expect("the drive revisits");
         let o = r.online.expect("replayed");
@@ -341,6 +545,76 @@ mod tests {
             "{o:?}"
         );
         assert!(o.correct() > 0 && o.correct() <= o.candidates(), "{o:?}");
+    }
+
+    /// A square driven three times, timed and headed along its road, its
+    /// x drifting by `drift` a lap (as odometry's does), with relations
+    /// from each later pass to every earlier one at every tenth pose,
+    /// measuring the passes `side` apart.
+    fn square_with_relations(drift: f64, side: f64) -> Session {
+        let lap = crate::test_paths::square_loop(0, 0.0);
+        let n = lap.len() as f64;
+        let path: Vec<Vector3<f64>> = (0..3 * lap.len())
+            .map(|i| lap[i % lap.len()] + Vector3::x() * (drift * i as f64 / n))
+            .collect();
+        let poses: Vec<Pose> = path
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let next = path[(i + 1).min(path.len() - 1)] - path[i.saturating_sub(1)];
+                Pose {
+                    t: Some(i as f64),
+                    position: *p,
+                    orientation: Some(UnitQuaternion::from_axis_angle(
+                        &Vector3::z_axis(),
+                        next.y.atan2(next.x),
+                    )),
+                }
+            })
+            .collect();
+        let relations = (lap.len()..path.len())
+            .step_by(10)
+            .flat_map(|i| {
+                (lap.len()..=i)
+                    .step_by(lap.len())
+                    .map(move |back| (i - back, i))
+            })
+            .map(|(a, b)| Relation {
+                t: [a as f64, b as f64],
+                translation: Vector2::new(0.0, side),
+                yaw: 0.0,
+            })
+            .collect();
+        Session {
+            kind: Kind::Wheeled,
+            name: "square".into(),
+            recording: "square".into(),
+            frame: None,
+            input: path.clone(),
+            truth: path,
+            judged: false,
+            relations: Some(std::sync::Arc::new(Measured { poses, relations })),
+        }
+    }
+
+    #[test]
+    fn a_log_without_a_truth_is_judged_by_its_relations() {
+        // The relations say the passes coincide where the odometry has
+        // them 15 and 30 apart: the loops that lay them on one another are right,
+        // batch and online.
+        let s = square_with_relations(15.0, 0.0);
+        assert_eq!(inputs(&s), vec![Input::Estimate]);
+        let r = run(&s, Input::Estimate, 1, true).expect("judged by its relations");
+        assert!(r.events > 0, "{r:?}");
+        assert!(r.covered[0] > 0 && r.rank1_correct[0], "{r:?}");
+        let o = r.online.as_ref().expect("replayed");
+        assert!(o.covered > 0 && o.correct() > 0, "{o:?}");
+        // Passes that coincide in the odometry against relations measuring
+        // them 30 apart (ten revisit radii): no loop is right.
+        let r = run(&square_with_relations(0.0, 30.0), Input::Estimate, 1, true).unwrap();
+        assert!(r.events > 0 && r.returned[0] > 0, "{r:?}");
+        assert_eq!((r.covered[0], r.correct[0]), (0, 0), "{r:?}");
+        assert_eq!(r.online.unwrap().correct(), 0);
     }
 
     #[test]

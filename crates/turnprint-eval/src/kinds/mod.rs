@@ -22,7 +22,7 @@ pub mod report;
 
 use serde::Serialize;
 
-pub use catalog::{catalog, Session};
+pub use catalog::{catalog, Measured, Session};
 
 /// Radius of the common road, as a fraction of the reference path's extent
 /// (bounding-box diagonal): KITTI windows of 0.5-1 km span 300-600 m, so
@@ -224,7 +224,7 @@ pub fn evaluate(opts: &KindsOptions) -> turnprint::Result<report::KindsReport> {
     if opts.loops {
         let runs: Vec<(&Session, loops::Input)> = sessions
             .iter()
-            .filter(|s| wanted(s.kind) && s.judged)
+            .filter(|s| wanted(s.kind) && s.loops_judged())
             .flat_map(|s| loops::inputs(s).into_iter().map(move |i| (s, i)))
             .collect();
         bar.inc_length(runs.len() as u64 * opts.loop_seeds);
