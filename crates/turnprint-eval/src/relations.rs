@@ -341,21 +341,22 @@ mod tests {
             .collect()
     }
 
+    /// The relation from pose `a` to pose `b`, measured on `poses`.
+    fn measured(poses: &[Pose], a: usize, b: usize) -> Relation {
+        let (pa, pb) = (&poses[a], &poses[b]);
+        let qa = pa.orientation.unwrap();
+        Relation {
+            t: [a as f64, b as f64],
+            translation: (qa.inverse() * (pb.position - pa.position)).xy(),
+            yaw: (qa.inverse() * pb.orientation.unwrap()).euler_angles().2,
+        }
+    }
+
     #[test]
     fn a_path_that_agrees_with_its_relations_has_no_error_and_a_shifted_one_has_its_shift() {
         let poses = circle(81);
         // Quarter turns and a full lap (a revisit), measured from the path.
-        let relation = |a: usize, b: usize| {
-            let (pa, pb) = (&poses[a], &poses[b]);
-            let qa = pa.orientation.unwrap();
-            let local = qa.inverse() * (pb.position - pa.position);
-            let yaw = (qa.inverse() * pb.orientation.unwrap()).euler_angles().2;
-            Relation {
-                t: [a as f64, b as f64],
-                translation: local.xy(),
-                yaw,
-            }
-        };
+        let relation = |a, b| measured(&poses, a, b);
         let relations = vec![relation(0, 10), relation(10, 20), relation(5, 45)];
         let (all, revisits) = errors(&poses, &relations).unwrap();
         assert_eq!((all.count, revisits.count), (3, 1));
@@ -445,15 +446,7 @@ mod tests {
     fn revisits_that_follow_one_another_make_one_event_and_local_relations_none() {
         // Three laps of a circle (0.157 of road per pose).
         let poses = circle(121);
-        let relation = |a: usize, b: usize| {
-            let (pa, pb) = (&poses[a], &poses[b]);
-            let qa = pa.orientation.unwrap();
-            Relation {
-                t: [a as f64, b as f64],
-                translation: (qa.inverse() * (pb.position - pa.position)).xy(),
-                yaw: 0.0,
-            }
-        };
+        let relation = |a, b| measured(&poses, a, b);
         let relations = vec![
             relation(5, 45),
             relation(3, 20), // along the path: no revisit

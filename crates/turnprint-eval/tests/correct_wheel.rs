@@ -1,6 +1,7 @@
-//! Drift correction on a wheeled robot's dead reckoning, judged by the
-//! relations measured for its log (CARMEN ACES, `turnprint_eval::relations`;
-//! skipped when the shared data is absent, a failure under `CI=true`).
+//! Drift correction and the loop search on a wheeled robot's dead
+//! reckoning, judged by the relations measured for its log (CARMEN ACES,
+//! `turnprint_eval::relations`; skipped when the shared data is absent, a
+//! failure under `CI=true`).
 
 use turnprint::correct::{correct, CorrectConfig};
 use turnprint::io::{read_trajectory, Format};
@@ -48,4 +49,28 @@ fn correcting_wheel_odometry_keeps_its_heading_and_harms_no_measured_relation() 
             "{name}: mean error {before} before, {after} after correction"
         );
     }
+}
+
+/// The loop search on a wheeled robot's dead reckoning, judged by the log's
+/// relations (`evaluate_kinds`' wheeled row): its best loop is right and
+/// its top 10 covers more of the revisit events than the naive
+/// nearest-position baseline, which drift has moved metres apart.
+#[test]
+fn a_wheeled_robots_loops_are_judged_by_its_relations_and_cover_more_than_the_naive() {
+    use turnprint_eval::kinds::{catalog, loops};
+    let Some(measured) = require("carmen/more/aces.relations") else {
+        return;
+    };
+    let dir = measured.ancestors().nth(3).expect("<data>/carmen/more/");
+    let sessions = catalog(dir).sessions;
+    let aces = sessions
+        .iter()
+        .find(|s| s.name == "carmen aces")
+        .expect("ACES in the catalog");
+    assert!(aces.relations.is_some() && aces.loops_judged());
+    assert_eq!(loops::inputs(aces), vec![loops::Input::Estimate]);
+    let run = loops::run(aces, loops::Input::Estimate, 1, false).expect("ACES revisits");
+    assert!(run.events >= 5, "{:?}", run.event_ranges);
+    assert!(run.rank1_correct[0], "{:?}", run.loops);
+    assert!(run.covered[0] > run.covered[1], "{:?}", run.covered);
 }
