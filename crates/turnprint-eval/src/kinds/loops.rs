@@ -303,8 +303,8 @@ enum Referee<'a> {
     /// its similarity puts them (median); a claim no relation joins is
     /// counted wrong, as nothing shows it right. Only revisits judge, so
     /// that a claim pairing a stretch with its neighbourhood is not
-    /// called right by the odometry's own motion. Relations are sparse
-    /// (where the reference SLAM closed a loop), so a claim's passes are
+    /// called right by the odometry's own motion. Revisits are sparse (88
+    /// relations over ACES's 7375 poses), so a claim's passes are
     /// widened by `join` of road each way, the distance within which
     /// relations make one event.
     Relations {
@@ -381,9 +381,10 @@ impl<'a> Referee<'a> {
         }
     }
 
-    /// The relations joining a claim's passes and how far it misses each,
-    /// in the log's units (relations only).
-    fn misses(&self, (c, input_T): &(LoopClaim, Similarity3)) -> Vec<(usize, f64)> {
+    /// The median of a claim's misses over the revisits joining its
+    /// passes, in the log's units, and those revisits; `None` where none
+    /// joins them (and for a truth).
+    fn miss(&self, (c, input_T): &(LoopClaim, Similarity3)) -> Option<(f64, Vec<usize>)> {
         let Referee::Relations {
             measured,
             arc,
@@ -393,10 +394,10 @@ impl<'a> Referee<'a> {
             ..
         } = self
         else {
-            return Vec::new();
+            return None;
         };
-        // The claim's similarity in the log's frame: back from the input's
-        // frame, the similarity, into the input's frame again.
+        // The claim's similarity in the log's frame: into the input's
+        // frame, the claim's similarity there, and back.
         let session_T = input_T_session
             .inverse()
             .compose(input_T)
@@ -405,7 +406,7 @@ impl<'a> Referee<'a> {
             c.matched[0].min(c.matched[1]),
             c.matched[0].max(c.matched[1]),
         ];
-        loop_misses(
+        let (joined, mut misses): (Vec<usize>, Vec<f64>) = loop_misses(
             &measured.poses,
             &measured.relations,
             widened(arc, query_range(c), *join),
@@ -414,7 +415,9 @@ impl<'a> Referee<'a> {
         )
         .into_iter()
         .filter(|(k, _)| revisit[*k])
-        .collect()
+        .unzip();
+        misses.sort_by(f64::total_cmp);
+        Some((*misses.get(misses.len() / 2)?, joined))
     }
 
     /// The true median offset between a claim's passes in revisit radii
@@ -425,9 +428,7 @@ impl<'a> Referee<'a> {
                 true_offset(claim.0.query, claim.0.matched, truth) / radius
             }
             Referee::Relations { radius, .. } => {
-                let mut m: Vec<f64> = self.misses(claim).into_iter().map(|m| m.1).collect();
-                m.sort_by(f64::total_cmp);
-                m.get(m.len() / 2).map_or(f64::NAN, |m| m / radius)
+                self.miss(claim).map_or(f64::NAN, |m| m.0 / radius)
             }
         }
     }
@@ -458,17 +459,12 @@ impl<'a> Referee<'a> {
                 let mut joined: Vec<usize> = Vec::new();
                 let ok: Vec<bool> = claims
                     .iter()
-                    .map(|c| {
-                        let misses = self.misses(c);
-                        let mut m: Vec<f64> = misses.iter().map(|m| m.1).collect();
-                        m.sort_by(f64::total_cmp);
-                        let right = m
-                            .get(m.len() / 2)
-                            .is_some_and(|m| *m <= LOOP_RADII * radius);
-                        if right {
-                            joined.extend(misses.iter().map(|m| m.0));
+                    .map(|c| match self.miss(c) {
+                        Some((m, relations)) if m <= LOOP_RADII * radius => {
+                            joined.extend(relations);
+                            true
                         }
-                        right
+                        _ => false,
                     })
                     .collect();
                 let covered = events
