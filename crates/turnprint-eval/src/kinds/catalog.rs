@@ -148,7 +148,8 @@ impl Catalog {
     /// from `<log>.relations` beside it; `None` where there is none (or it
     /// is unreadable: listed as skipped).
     fn relations_beside(&mut self, dir: &Path, rel: &str, t: &Trajectory) -> Option<Arc<Measured>> {
-        let file = dir.join(rel.strip_suffix("_odom.csv")?.to_string() + ".relations");
+        let rel_relations = rel.strip_suffix("_odom.csv")?.to_string() + ".relations";
+        let file = dir.join(&rel_relations);
         if !file.exists() {
             return None;
         }
@@ -158,7 +159,7 @@ impl Catalog {
                 relations,
             })),
             Err(e) => {
-                self.skipped.push((file.display().to_string(), e));
+                self.skipped.push((rel_relations, e));
                 None
             }
         }
@@ -586,6 +587,40 @@ fn first_track_point(text: &str) -> Option<Geodetic> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_logs_relations_are_read_thinned_with_it_and_a_bad_file_is_listed_not_fatal() {
+        let dir = tempfile::tempdir().unwrap();
+        let more = dir.path().join("carmen/more");
+        std::fs::create_dir_all(&more).unwrap();
+        // A circle driven at 1 Hz for 7000 s: thinned to every second pose.
+        let odom: String = std::iter::once("t,x,y,theta\n".to_string())
+            .chain((0..7000).map(|i| {
+                let a = i as f64 * 0.01;
+                format!("{i},{},{},{}\n", a.cos(), a.sin(), a + 1.5)
+            }))
+            .collect();
+        std::fs::write(more.join("aces_odom.csv"), odom).unwrap();
+        std::fs::write(more.join("aces.relations"), "10 20 0.1 0 0 0 0 0.1\n").unwrap();
+        let c = catalog(dir.path());
+        let aces = c.sessions.iter().find(|s| s.name == "carmen aces").unwrap();
+        let measured = aces.relations.as_ref().expect("relations read");
+        assert_eq!(measured.poses.len(), aces.input.len());
+        assert_eq!(measured.poses[1].t, Some(2.0));
+        assert_eq!(measured.relations.len(), 1);
+        assert!(aces.loops_judged() && !aces.judged);
+
+        std::fs::write(more.join("aces.relations"), "10 20 nan 0 0 0 0 0.1\n").unwrap();
+        let c = catalog(dir.path());
+        let aces = c.sessions.iter().find(|s| s.name == "carmen aces").unwrap();
+        assert!(aces.relations.is_none() && !aces.loops_judged());
+        let (file, why) = c
+            .skipped
+            .iter()
+            .find(|(f, _)| f.ends_with("aces.relations"))
+            .expect("the bad file listed");
+        assert!(why.contains(":1:"), "{file}: {why}");
+    }
 
     #[test]
     fn the_first_track_point_is_read_whatever_the_quotes_and_order() {
