@@ -143,8 +143,8 @@ fn bench_reoptimisation(c: &mut Criterion, rate: f64) {
 /// drive.
 const PACE: Duration = Duration::from_micros(200);
 
-/// `push` latencies over MULLS 00 streamed with drift correction from every
-/// candidate (the live policy, `Overflow::MergeLatest`), paced at [`PACE`]:
+/// `push` latencies over MULLS 00 streamed with drift correction from its
+/// candidates (the live policy, `Overflow::MergeLatest`), paced at [`PACE`]:
 /// those of the pushes between the first candidate and the last
 /// correction event, when the correction's thread has a solve running or
 /// queued, and the count of corrections. Printed, not timed by criterion:

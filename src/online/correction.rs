@@ -29,8 +29,9 @@ use crate::Hypothesis;
 /// Which loops enter the graph.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LoopInput {
-    /// Every candidate the detector emits (the graph's own gate turns the
-    /// wrong ones away).
+    /// The candidates the detector emits at its shape cut (the graph's own
+    /// gate turns the wrong ones away; those below the cut wait for a
+    /// verifier).
     Candidates,
     /// Only the loops the caller hands over with
     /// [`super::Detector::close_loop`] (a verifier's confirmed ones).

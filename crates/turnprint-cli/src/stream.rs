@@ -24,7 +24,8 @@ const IDLE_POLL: Duration = Duration::from_millis(20);
 
 /// Streams the trajectory at `path` and writes one JSON object per line
 /// to `out`: candidates as they come, then the summary. With `correct`,
-/// every candidate also enters the drift correction, each re-optimisation
+/// the candidates at the shape cut also enter the drift correction (with
+/// the verifier, `sidecar`, the confirmed ones), each re-optimisation
 /// is a `corrected` event, and the corrected path is written there as TUM
 /// at the end.
 pub fn stream(

@@ -184,7 +184,8 @@ fn pairing(t: &Trajectory, gt_len: usize, times: &[f64]) -> Option<Vec<usize>> {
 }
 
 /// The estimate streamed through the online detector with drift
-/// correction (every candidate enters the graph); the corrected path at the
+/// correction (its candidates at the shape cut enter the graph, as in
+/// `stream --correct` without a verifier); the corrected path at the
 /// end, with the re-optimisations' count and slowest time on stderr.
 fn streamed(est: &Trajectory) -> turnprint::Result<turnprint::correct::Corrected> {
     use turnprint::online::correction::LoopInput;
