@@ -163,12 +163,7 @@ fn a_drones_vio_streamed_with_correction_is_not_pulled_by_candidates_below_the_c
     let truth = turnprint_eval::kinds::catalog::truth_at_times(&est, &gt);
     let mut d = correcting();
     for p in &est.poses {
-        d.push(&PoseInput {
-            t: p.t,
-            position: p.position,
-            orientation: p.orientation,
-            keyframe: None,
-        });
+        d.push(&PoseInput::from(p));
         d.poll();
     }
     let (_, _, finished) = d.finish_corrected();

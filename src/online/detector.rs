@@ -62,6 +62,18 @@ impl PoseInput {
     }
 }
 
+impl From<&crate::trajectory::Pose> for PoseInput {
+    /// A read pose as odometry would deliver it (no keyframe).
+    fn from(p: &crate::trajectory::Pose) -> Self {
+        PoseInput {
+            t: p.t,
+            position: p.position,
+            orientation: p.orientation,
+            keyframe: None,
+        }
+    }
+}
+
 /// What happened to one pushed pose.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Pushed {

@@ -131,12 +131,7 @@ fn detector(config: &OnlineConfig, correct: Option<&Path>) -> Result<Detector> {
 
 /// One pose into the detector (no keyframes: nothing is rendered).
 fn push(detector: &mut Detector, pose: &Pose) {
-    detector.push(&PoseInput {
-        t: pose.t,
-        position: pose.position,
-        orientation: pose.orientation,
-        keyframe: None,
-    });
+    detector.push(&PoseInput::from(pose));
 }
 
 /// The error for a stream of `n` poses, too few for the method.

@@ -194,12 +194,7 @@ fn streamed(est: &Trajectory) -> turnprint::Result<turnprint::correct::Corrected
         .with_correction(config(), LoopInput::Candidates);
     let mut solves = Vec::new();
     for p in &est.poses {
-        d.push(&PoseInput {
-            t: p.t,
-            position: p.position,
-            orientation: p.orientation,
-            keyframe: None,
-        });
+        d.push(&PoseInput::from(p));
         d.poll();
         solves.extend(d.poll_corrections());
     }

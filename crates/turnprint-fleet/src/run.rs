@@ -237,12 +237,7 @@ fn run(
             let due = t0 + Duration::from_secs_f64(i as f64 / rate);
             std::thread::sleep(due.saturating_duration_since(Instant::now()));
         }
-        detector.push(&PoseInput {
-            t: pose.t,
-            position: pose.position,
-            orientation: pose.orientation,
-            keyframe: None,
-        });
+        detector.push(&PoseInput::from(pose));
         publisher.take(&tap);
         if !publisher.pending.bounds.is_empty() {
             publisher.publish(detector.params(), detector.poses(), false)?;
