@@ -465,16 +465,11 @@ impl Detector {
         events
     }
 
-    /// Hands candidates to the correction when candidates enter it (those
-    /// at the shape cut, [`unverified_loop`]).
+    /// Hands candidates to the correction ([`hand_over`]).
     fn correct_with(&self, _events: &[CandidateEvent]) {
         #[cfg(feature = "correct")]
         if let Some(c) = &self.correction {
-            if c.input == super::correction::LoopInput::Candidates {
-                for e in _events.iter().filter(|e| unverified_loop(e, &self.config)) {
-                    c.close_loop(&e.hypothesis);
-                }
-            }
+            hand_over(c, _events, self.config.min_score);
         }
     }
 
@@ -533,14 +528,10 @@ impl Detector {
         Option<super::correction::Link>,
     ) {
         let correction = self.correction.take();
-        let config = self.config.clone();
+        let cut = self.config.min_score;
         let (events, summary) = self.drain();
         if let Some(c) = &correction {
-            if c.input == super::correction::LoopInput::Candidates {
-                for e in events.iter().filter(|e| unverified_loop(e, &config)) {
-                    c.close_loop(&e.hypothesis);
-                }
-            }
+            hand_over(c, &events, cut);
         }
         (events, summary, correction)
     }
@@ -579,16 +570,21 @@ impl Detector {
     }
 }
 
-/// Whether a candidate enters the drift correction when no verifier
-/// judges the loops: only at the shape cut ([`OnlineConfig::min_score`]).
-/// The candidates emitted below it (the drifting-map probe's and the
+/// Hands candidates to a correction that takes them
+/// ([`super::correction::LoopInput::Candidates`]): with no verifier to judge
+/// the loops, only those at the shape cut `min_score`
+/// ([`OnlineConfig::min_score`]). The candidates emitted below it (the drifting-map probe's and the
 /// network's from [`OnlineConfig::drift_min_score`], proximity ones held to
 /// its rules) are there for a verifier to judge; short and loosely fitted,
 /// in a graph they pull the path by metres where the odometry was right
 /// (EuRoC VI-SLAM MH_04: an 18-pose loop at scale 1.12, 0.17 -> 0.53 m).
 #[cfg(feature = "correct")]
-fn unverified_loop(e: &CandidateEvent, config: &OnlineConfig) -> bool {
-    e.hypothesis.score >= config.min_score
+fn hand_over(c: &super::correction::Link, events: &[CandidateEvent], min_score: f64) {
+    if c.input == super::correction::LoopInput::Candidates {
+        for e in events.iter().filter(|e| e.hypothesis.score >= min_score) {
+            c.close_loop(&e.hypothesis);
+        }
+    }
 }
 
 impl Drop for Detector {

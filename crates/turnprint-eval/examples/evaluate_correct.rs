@@ -487,7 +487,7 @@ fn print_relation_loops(
 ) {
     for l in &c.loops {
         let q = &l.closure;
-        let mut misses: Vec<f64> = turnprint_eval::relations::loop_misses(
+        let misses: Vec<f64> = turnprint_eval::relations::loop_misses(
             &est.poses,
             relations,
             q.query_range,
@@ -497,10 +497,10 @@ fn print_relation_loops(
         .into_iter()
         .map(|(_, m)| m)
         .collect();
-        misses.sort_by(f64::total_cmp);
-        let median = misses
-            .get(misses.len() / 2)
-            .map_or("no relation".to_string(), |m| format!("{m:.2} m"));
+        let median = match misses.is_empty() {
+            true => "no relation".to_string(),
+            false => format!("{:.2} m", turnprint_eval::checks::median(&misses)),
+        };
         eprintln!(
             "  q {:?} m {:?} rev {} score {:.2} kept {}: {} relations between its passes, median miss {median}",
             q.query_range, q.match_range, q.reversed, q.score, l.kept, misses.len()

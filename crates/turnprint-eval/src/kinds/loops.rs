@@ -406,7 +406,7 @@ impl<'a> Referee<'a> {
             c.matched[0].min(c.matched[1]),
             c.matched[0].max(c.matched[1]),
         ];
-        let (joined, mut misses): (Vec<usize>, Vec<f64>) = loop_misses(
+        let (joined, misses): (Vec<usize>, Vec<f64>) = loop_misses(
             &measured.poses,
             &measured.relations,
             widened(arc, query_range(c), *join),
@@ -416,8 +416,7 @@ impl<'a> Referee<'a> {
         .into_iter()
         .filter(|(k, _)| revisit[*k])
         .unzip();
-        misses.sort_by(f64::total_cmp);
-        Some((*misses.get(misses.len() / 2)?, joined))
+        (!misses.is_empty()).then(|| (median(&misses), joined))
     }
 
     /// The true median offset between a claim's passes in revisit radii
