@@ -33,7 +33,8 @@ pub struct OnlineConfig {
     pub exclusion: Exclusion,
     /// Candidates emitted per finalised segment.
     pub top_k: usize,
-    /// Lowest score emitted.
+    /// Lowest score emitted of a shape candidate; a proximity candidate's
+    /// cut is a third of it (`gate::PROXIMITY_CUT_SHARE`).
     pub min_score: f64,
     /// Lowest score emitted for a candidate of the drifting-map probe. Its
     /// score is low by design (a straight revisit has little turning, and
