@@ -572,12 +572,13 @@ impl Detector {
 
 /// Hands candidates to a correction that takes them
 /// ([`super::correction::LoopInput::Candidates`]): with no verifier to judge
-/// the loops, only those at the shape cut `min_score`
-/// ([`OnlineConfig::min_score`]). The candidates emitted below it (the drifting-map probe's and the
-/// network's from [`OnlineConfig::drift_min_score`], proximity ones held to
-/// its rules) are there for a verifier to judge; short and loosely fitted,
-/// in a graph they pull the path by metres where the odometry was right
-/// (EuRoC VI-SLAM MH_04: an 18-pose loop at scale 1.12, 0.17 -> 0.53 m).
+/// the loops, only those at the shape cut ([`OnlineConfig::min_score`]).
+/// The candidates emitted below it (the drifting-map probe's and the
+/// network's from [`OnlineConfig::drift_min_score`], proximity ones from a
+/// third of the cut, `gate::PROXIMITY_CUT_SHARE`) are there for a verifier
+/// to judge; short and loosely fitted, in a graph they pull the path by
+/// metres where the odometry was right (EuRoC VI-SLAM MH_04: an 18-pose
+/// loop at scale 1.12, 0.17 -> 0.53 m).
 #[cfg(feature = "correct")]
 fn hand_over(c: &super::correction::Link, events: &[CandidateEvent], min_score: f64) {
     if c.input == super::correction::LoopInput::Candidates {
