@@ -228,6 +228,13 @@ pub struct CorrectConfig {
     /// Edges per loop: 5 spread over its query range tie the two passes
     /// along their length, not at one point.
     pub edges_per_loop: usize,
+    /// Pieces the final solve cuts each chosen loop into where they fit
+    /// it far better than its one similarity ([`LoopClosure::pieces`]),
+    /// each sharing the loop's information; below 2 keeps loops whole. 5,
+    /// one for each of a loop's edges ([`CorrectConfig::edges_per_loop`]):
+    /// the graph may then follow the drift between the passes wherever an
+    /// edge ties them.
+    pub loop_pieces: usize,
     /// Take each loop as the rigid motion that lays its poses onto each
     /// other (SE(3) graphs, loops travelled the same way:
     /// [`LoopClosure::rigid`]) instead of the search's similarity, with its
@@ -263,6 +270,7 @@ impl Default for CorrectConfig {
             max_nodes: 250,
             edges_per_loop: 5,
             rigid_loops: false,
+            loop_pieces: 5,
             odometry: OdometryNoise::default(),
             loop_noise: LoopNoise::default(),
             reject_above: 3.0,

@@ -247,11 +247,10 @@ fn keyframes(n: usize, loops: &[LoopClosure], config: &CorrectConfig) -> Vec<usi
     let stride = n.div_ceil(config.max_nodes.max(2)).max(1);
     let mut keyframes: Vec<usize> = (0..n).step_by(stride).collect();
     keyframes.push(n - 1);
-    let picks = config.edges_per_loop.max(1);
     for l in loops {
         for r in [l.query_range, l.match_range] {
             let (a, b) = (r[0].min(n - 1), r[1].min(n - 1));
-            keyframes.extend(spread(b.saturating_sub(a) + 1, picks).map(|k| a + k));
+            keyframes.extend(spread(b.saturating_sub(a) + 1, edges(l, config)).map(|k| a + k));
         }
     }
     keyframes.sort_unstable();
@@ -260,9 +259,20 @@ fn keyframes(n: usize, loops: &[LoopClosure], config: &CorrectConfig) -> Vec<usi
 }
 
 /// `picks` indices into `0..len` spread evenly, the first and the last
-/// among them.
+/// among them; one pick is the middle.
 fn spread(len: usize, picks: usize) -> impl Iterator<Item = usize> {
-    (0..picks).map(move |q| (q * len.saturating_sub(1)) / (picks.saturating_sub(1)).max(1))
+    let last = len.saturating_sub(1);
+    (0..picks).map(move |q| match picks {
+        1 => last / 2,
+        _ => (q * last) / (picks - 1),
+    })
+}
+
+/// Edges of loop `l`: `edges_per_loop`, shared among the pieces of a loop
+/// cut into pieces ([`LoopClosure::pieces`]), at least one each, so that a
+/// loop in pieces adds no more nodes and edges than the loop whole.
+fn edges(l: &LoopClosure, config: &CorrectConfig) -> usize {
+    (config.edges_per_loop / l.share.max(1)).max(1)
 }
 
 /// Edges of one loop: up to `edges_per_loop` query keyframes spread over the
@@ -288,16 +298,19 @@ fn loop_edges(
         return Vec::new();
     }
     let match_T_query = l.query_T_match.inverse();
-    let picks = config.edges_per_loop.clamp(1, query.len());
+    let picks = edges(l, config).min(query.len());
     let chosen: Vec<usize> = spread(query.len(), picks).map(|k| query[k]).collect();
     let length = (arc[l.query_range[1]] - arc[l.query_range[0]]).max(f64::EPSILON);
-    let sigmas = config.loop_noise.sigmas(l.rmse, length, picks);
+    // Each edge a share of its loop's information, each piece of a loop
+    // a share of the loop's (`LoopClosure::share`).
+    let shares = picks * l.share.max(1);
+    let sigmas = config.loop_noise.sigmas(l.rmse, length, shares);
     let slide = |i: usize| -> Option<Loose> {
         // The direction of travel at keyframe `i`, in its own frame.
         let world = travel(positions, keyframes[i]);
         (world.norm() > 0.0).then(|| Loose {
             axis: poses[i].rotation.transpose() * world.normalize(),
-            sigma: config.loop_noise.slide * length * (picks as f64).sqrt(),
+            sigma: config.loop_noise.slide * length * (shares as f64).sqrt(),
         })
     };
     // Along the levelling move (the path's normal) square to the direction
@@ -307,7 +320,7 @@ fn loop_edges(
         let along = slide(i).map_or_else(Vector3::zeros, |s| poses[i].rotation * s.axis);
         let up = l.level.try_normalize(0.0)?;
         let world = up - along * along.dot(&up);
-        let sigma = l.height() * (picks as f64).sqrt();
+        let sigma = l.height() * (shares as f64).sqrt();
         (world.norm() > 0.0 && sigma > sigmas.translation).then(|| Loose {
             axis: poses[i].rotation.transpose() * world.normalize(),
             sigma,
@@ -321,7 +334,7 @@ fn loop_edges(
         let (axis, ratio) = lever?;
         Some(Loose {
             axis: poses[i].rotation.transpose() * axis,
-            sigma: config.loop_noise.roll(sigmas.rotation, ratio, picks),
+            sigma: config.loop_noise.roll(sigmas.rotation, ratio, shares),
         })
     };
     chosen

@@ -8,7 +8,9 @@
 //!      -> choice (apex-solver, least squares, rise of the cost, best loop first)
 //!      -> drift measured from the chosen loops, and the loops it explains
 //!      -> final solve, each loop's passes laid at one height
-//!         (LoopClosure::levelled, on a path that keeps to a surface)
+//!         (LoopClosure::levelled, on a path that keeps to a surface),
+//!         a loop its one similarity misfits cut into pieces
+//!         (LoopClosure::pieces)
 //!      -> every pose carried along by its keyframes
 //! ```
 //!
@@ -24,7 +26,10 @@
 //! show. The final solve, plain least squares with each loop trusted as far
 //! as its own misfit says, moves the path only as far as that drift allows:
 //! loops that show no drift beyond their own noise leave the path as it was.
-//! There the loops are levelled: the search fits shapes in the path's plane
+//! A long revisit whose later pass the drift bends away from the earlier
+//! one is fitted there in pieces, each with its own similarity and a share
+//! of the loop's information, so the graph can follow the drift along it.
+//! The final solve also takes the loops levelled: the search fits shapes in the path's plane
 //! and leaves each loop the height difference the odometry has between its
 //! passes, which the choice needs (a look-alike on a hill differs in
 //! height) but which the final solve would hold as the truth.
@@ -58,7 +63,8 @@ pub struct LoopVerdict {
     /// Kept in the final solution.
     pub kept: bool,
     /// Median normalised residual of its edges in the final solution (in
-    /// its sigmas); infinite when it has no edge.
+    /// its sigmas), of all its pieces' where it was cut
+    /// ([`LoopClosure::pieces`]); infinite when it has no edge.
     pub residual: f64,
 }
 
@@ -153,7 +159,7 @@ pub fn correct_again_from(
             .and_then(|p| start_from(&prior, p, solution(p)))
             .unwrap_or_else(|| prior.poses.clone())
     };
-    let (start_choice, start_final) = (start(|p| &p.chosen), start(|p| &p.solution));
+    let start_choice = start(|p| &p.chosen);
     // Measurement: the chosen loops' misses against the path say how much it
     // drifts, with each loop trusted as far as its own misfit says. A loop
     // that only reflects its own noise (a lane's offset on a path without
@@ -194,33 +200,43 @@ pub fn correct_again_from(
                 .collect(),
         );
     };
-    // The final solve takes the loops levelled (LoopClosure::levelled).
+    // The final solve takes the chosen loops in pieces
+    // (LoopClosure::pieces), levelled (LoopClosure::levelled).
     let positions = path.positions();
-    let loops: Vec<LoopClosure> = loops.iter().map(|l| l.levelled(&positions)).collect();
-    let loops = &loops[..];
+    let (mut pieces, mut owner) = (Vec::new(), Vec::new());
+    for (id, l) in loops.iter().enumerate() {
+        let cut = match chosen[id] {
+            true => l.pieces(path, &positions, config.loop_pieces),
+            false => vec![l.clone()],
+        };
+        owner.extend(std::iter::repeat_n(id, cut.len()));
+        pieces.extend(cut.iter().map(|p| p.levelled(&positions)));
+    }
     let graph = PoseGraph::build(
         path,
-        loops,
+        &pieces,
         &CorrectConfig {
             odometry: config.odometry.scaled(k),
             ..fit
         },
     )?;
-    let (active, solution) = settle(&graph, &start_final, loops, chosen, config)?;
-    let has_edges: Vec<bool> = (0..loops.len())
-        .map(|id| graph.loop_edges(id).next().is_some())
-        .collect();
-    let verdicts = loops
-        .iter()
+    let start_active = owner.iter().map(|&id| chosen[id]).collect();
+    // The pieces add keyframes: the final graph's start is its own.
+    let start_final = previous
+        .and_then(|p| start_from(&graph, p, &p.solution))
+        .unwrap_or_else(|| graph.poses.clone());
+    let (active, solution) = settle(&graph, &start_final, &pieces, start_active, config)?;
+    let levelled: Vec<LoopClosure> = loops.iter().map(|l| l.levelled(&positions)).collect();
+    let verdicts = levelled
+        .into_iter()
         .enumerate()
-        .map(|(id, l)| LoopVerdict {
-            closure: l.clone(),
-            kept: active[id],
-            residual: if has_edges[id] {
-                residual(&graph, &solution, id)
-            } else {
-                f64::INFINITY
-            },
+        .map(|(id, closure)| {
+            let ids = pieces_of(&owner, id);
+            LoopVerdict {
+                closure,
+                kept: ids.iter().any(|&p| active[p]),
+                residual: residual(&graph, &solution, &pieces, &ids),
+            }
         })
         .collect();
     Ok(Corrected {
@@ -424,8 +440,9 @@ fn admits(rise: f64, dof: f64, sigmas: f64) -> bool {
 /// odometry noise (the choice already turned the gross outliers away, and
 /// a robust loss would hold back a true loop that starts many of its sigmas
 /// off); the loop that misses by the most sigmas, if above the gate, is
-/// switched off and the graph solved again. The first solve starts from
-/// `start`, the others from the path as it was.
+/// switched off and the graph solved again; a loop cut into pieces is
+/// settled piece by piece. The first solve starts from `start`, the others
+/// from the path as it was.
 fn settle(
     graph: &PoseGraph,
     start: &[Similarity3],
@@ -442,7 +459,7 @@ fn settle(
         start = &graph.poses;
         let worst = (0..loops.len())
             .filter(|&id| active[id])
-            .map(|id| (id, residual(graph, &solution, id)))
+            .map(|id| (id, residual(graph, &solution, loops, &[id])))
             .max_by(|a, b| a.1.total_cmp(&b.1));
         match worst {
             Some((id, r)) if r > config.reject_above => active[id] = false,
@@ -451,18 +468,32 @@ fn settle(
     }
 }
 
-/// Median over the edges of loop `id` of the larger of the translation and
-/// rotation misses, each in its sigmas (without the share that splits one
-/// loop's information among its edges).
-fn residual(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> f64 {
-    let mut r: Vec<f64> = graph
-        .loop_edges(id)
-        .map(|e| {
-            let share = (graph.loop_edges(id).count() as f64).sqrt();
-            let (t, w) = miss(solution, e);
-            let dt = e.sigmas.translation_misses(&t) * share;
-            let dr = e.sigmas.rotation_misses(&w) * share;
-            dt.max(dr)
+/// Indices of the pieces of loop `id` (`owner`: the loop each piece is of,
+/// in order).
+fn pieces_of(owner: &[usize], id: usize) -> Vec<usize> {
+    (0..owner.len()).filter(|&p| owner[p] == id).collect()
+}
+
+/// Median over the edges of one loop, or of the pieces `ids` it was cut
+/// into, of the larger of the translation and rotation misses, each in its
+/// sigmas (without the share that splits one loop's information among its
+/// edges and pieces).
+fn residual(
+    graph: &PoseGraph,
+    solution: &[Similarity3],
+    loops: &[LoopClosure],
+    ids: &[usize],
+) -> f64 {
+    let mut r: Vec<f64> = ids
+        .iter()
+        .flat_map(|&id| {
+            let share = ((graph.loop_edges(id).count() * loops[id].share.max(1)) as f64).sqrt();
+            graph.loop_edges(id).map(move |e| {
+                let (t, w) = miss(solution, e);
+                let dt = e.sigmas.translation_misses(&t) * share;
+                let dr = e.sigmas.rotation_misses(&w) * share;
+                dt.max(dr)
+            })
         })
         .collect();
     if r.is_empty() {
