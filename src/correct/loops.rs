@@ -239,7 +239,7 @@ impl LoopClosure {
     /// whole: a local fit of a road driven both ways lays its two lanes onto
     /// each other. The match piece of each query piece is the match range
     /// between the poses its ends land nearest to.
-    pub fn pieces(&self, path: &Trajectory, positions: &[Vector3<f64>], count: usize) -> Vec<Self> {
+    pub fn pieces(&self, positions: &[Vector3<f64>], count: usize) -> Vec<Self> {
         let whole = self.levelled(positions);
         let [q0, q1] = self.query_range;
         if self.reversed || count < 2 || q1 + 1 - q0 < PIECE_POSES * count {
@@ -272,35 +272,8 @@ impl LoopClosure {
             let (a, b) = (nearest(start), nearest(end));
             let matched = [a.min(b), a.max(b)];
             if end > start + 1 && matched[1] > matched[0] + 1 {
-                let fits = [Some(whole.query_T_match), None].map(|sim| {
-                    Self::new(path, [start, end], matched, sim, self.score, false)
-                        .map(|l| l.levelled(positions))
-                });
-                if let [Ok(a), Ok(b)] = fits {
-                    // A piece's own scale is what its fit happened to take
-                    // unless its shape shows it: the loop's, about the
-                    // piece's centre.
-                    let b = match b.scale_shown {
-                        true => Ok(b),
-                        false => {
-                            let c = positions[matched[0]..=matched[1]]
-                                .iter()
-                                .sum::<Vector3<f64>>()
-                                / (matched[1] - matched[0] + 1) as f64;
-                            let s = whole.query_T_match.scale;
-                            let sim = Similarity3 {
-                                scale: s,
-                                rotation: b.query_T_match.rotation,
-                                translation: b.query_T_match.apply(&c)
-                                    - s * (b.query_T_match.rotation * c),
-                            };
-                            Self::new(path, [start, end], matched, Some(sim), self.score, false)
-                                .map(|l| l.levelled(positions))
-                        }
-                    };
-                    if let Ok(b) = b {
-                        out.push(if b.rmse < a.rmse { b } else { a });
-                    }
+                if let Some(piece) = whole.piece(positions, [start, end], matched) {
+                    out.push(piece);
                 }
             }
             start = end;
@@ -316,6 +289,54 @@ impl LoopClosure {
             l.scale_shown = self.scale_shown;
         }
         out
+    }
+
+    /// One piece of the (levelled) loop `self` over the given ranges: the
+    /// loop's similarity or the ranges' own fit, whichever misses less, the
+    /// fit at the loop's scale (about the match piece's centre) unless the
+    /// piece's shape shows its own. `None` where the ranges fit nothing.
+    fn piece(
+        &self,
+        positions: &[Vector3<f64>],
+        query_range: [usize; 2],
+        match_range: [usize; 2],
+    ) -> Option<Self> {
+        let query = &positions[query_range[0]..=query_range[1]];
+        let matched = &positions[match_range[0]..=match_range[1]];
+        // As `new` takes them: a fit of the ranges lays the passes'
+        // centroids on each other, level already.
+        let at = |(sim, fitted): (Similarity3, bool)| {
+            Self {
+                query_range,
+                match_range,
+                query_T_match: sim,
+                rmse: misfit(query, matched, &sim),
+                level: match fitted {
+                    true => Vector3::zeros(),
+                    false => level(positions, query, matched, &sim),
+                },
+                levelled: false,
+                share: 1,
+                ..self.clone()
+            }
+            .levelled(positions)
+        };
+        let own = fit_ranges(positions, query, matched, false)?;
+        let own = match shows_scale(query, matched, &own) {
+            true => (own, true),
+            false => {
+                let c = matched.iter().sum::<Vector3<f64>>() / matched.len() as f64;
+                let s = self.query_T_match.scale;
+                let sim = Similarity3 {
+                    scale: s,
+                    rotation: own.rotation,
+                    translation: own.apply(&c) - s * (own.rotation * c),
+                };
+                (sim, false)
+            }
+        };
+        let [a, b] = [(self.query_T_match, false), own].map(at);
+        Some(if b.rmse < a.rmse { b } else { a })
     }
 
     /// Loops from the object `loops --json` prints (`loops` entries with
@@ -677,7 +698,7 @@ mod tests {
         let (path, q, m) = two_passes(&first, &second);
         let l = LoopClosure::new(&path, q, m, None, 1.0, false).unwrap();
         let positions = path.positions();
-        let pieces = l.pieces(&path, &positions, 5);
+        let pieces = l.pieces(&positions, 5);
         assert_eq!(
             pieces.len(),
             5,
@@ -716,12 +737,12 @@ mod tests {
         let (path, q, m) = two_passes(&first, &moved(&first, Vector3::new(3.0, 500.0, 0.0)));
         let l = LoopClosure::new(&path, q, m, None, 1.0, false).unwrap();
         let positions = path.positions();
-        assert_eq!(l.pieces(&path, &positions, 5).len(), 1);
+        assert_eq!(l.pieces(&positions, 5).len(), 1);
         let mut back = moved(&bent(&first, 0.15), Vector3::new(0.0, 500.0, 0.0));
         back.reverse();
         let (path, q, m) = two_passes(&first, &back);
         let l = LoopClosure::new(&path, q, m, None, 1.0, true).unwrap();
-        let whole = l.pieces(&path, &path.positions(), 5);
+        let whole = l.pieces(&path.positions(), 5);
         assert_eq!(whole.len(), 1);
         assert_eq!(whole[0].share, 1);
     }
@@ -738,7 +759,7 @@ mod tests {
         let (path, q, m) = two_passes(&sparse(&first), &sparse(&second));
         assert!(q[1] + 1 - q[0] < PIECE_POSES * 5);
         let l = LoopClosure::new(&path, q, m, None, 1.0, false).unwrap();
-        assert_eq!(l.pieces(&path, &path.positions(), 5).len(), 1);
+        assert_eq!(l.pieces(&path.positions(), 5).len(), 1);
     }
 
     /// Corners of a U-turn on the plane z = 0.

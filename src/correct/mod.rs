@@ -206,7 +206,7 @@ pub fn correct_again_from(
     let (mut pieces, mut owner) = (Vec::new(), Vec::new());
     for (id, l) in loops.iter().enumerate() {
         let cut = match chosen[id] {
-            true => l.pieces(path, &positions, config.loop_pieces),
+            true => l.pieces(&positions, config.loop_pieces),
             false => vec![l.clone()],
         };
         owner.extend(std::iter::repeat_n(id, cut.len()));
