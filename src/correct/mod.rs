@@ -63,7 +63,7 @@ pub struct LoopVerdict {
     /// Kept in the final solution.
     pub kept: bool,
     /// Median normalised residual of its edges in the final solution (in
-    /// its sigmas), of all its pieces' where it was cut
+    /// its sigmas), of its pieces kept where it was cut
     /// ([`LoopClosure::pieces`]); infinite when it has no edge.
     pub residual: f64,
 }
@@ -231,11 +231,15 @@ pub fn correct_again_from(
         .into_iter()
         .enumerate()
         .map(|(id, closure)| {
+            // A loop in pieces is kept where any piece is, and its
+            // residual is that of the pieces kept.
             let ids = pieces_of(&owner, id);
+            let kept: Vec<usize> = ids.iter().copied().filter(|&p| active[p]).collect();
+            let judged = if kept.is_empty() { &ids } else { &kept };
             LoopVerdict {
                 closure,
-                kept: ids.iter().any(|&p| active[p]),
-                residual: residual(&graph, &solution, &pieces, &ids),
+                kept: !kept.is_empty(),
+                residual: residual(&graph, &solution, &pieces, judged),
             }
         })
         .collect();
