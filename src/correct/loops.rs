@@ -229,10 +229,12 @@ impl LoopClosure {
 
     /// The loop cut along its query range into `count` pieces of equal
     /// length, each fitted on its own (the loop's similarity, or a fit of
-    /// the piece's two ranges paired along their arc length, whichever
-    /// misses less) and sharing the loop's information
-    /// ([`LoopClosure::share`]); the loop whole where the pieces do not fit
-    /// at least [`PIECES_SHOWN`] times better. One similarity over a long
+    /// the piece's two ranges paired along their arc length at the loop's
+    /// scale unless the piece's shape shows its own, whichever misses less)
+    /// and sharing the loop's information ([`LoopClosure::share`]); the
+    /// loop whole, levelled, where the pieces do not fit at least
+    /// [`PIECES_SHOWN`] times better or would hold fewer than
+    /// [`PIECE_POSES`] poses each. One similarity over a long
     /// revisit takes the drift between the two passes as constant along
     /// it; where the pieces fit far better, the drift varies along it and
     /// the pieces let the graph follow. A loop travelled the other way stays
