@@ -474,8 +474,8 @@ fn fit_ranges(
 }
 
 /// Median grade (rise over run, along `normal` over across it) of a path's
-/// stretches of [`GRADE_PIECES`]-th of its length below which it keeps to
-/// a surface and its passes over one place lie at one height ([`level`]).
+/// stretches of `GRADE_PIECES`-th of its length below which it keeps to
+/// a surface and its passes over one place lie at one height (`level`).
 /// Roads are built to grades of a few percent: KITTI's ground truth has
 /// medians of 0.3-3 %, its LiDAR odometry, tilted by its drift, up to 6 %;
 /// a flight climbs and sinks (EuRoC's VIO: 10-31 %), and its passes over
