@@ -749,10 +749,11 @@ mod tests {
         assert_eq!(whole[0].share, 1);
     }
 
-    /// Regression: a wrong loop of 12 poses (LiDAR MULLS 07, fitted at
-    /// scale 0.4) was cut into pieces of two poses, one of which the final
-    /// solve kept, moving the path 0.34 -> 0.40 m. A loop too short for
-    /// [`PIECE_POSES`] in each piece stays whole.
+    /// Regression: a loop of 12 poses (MULLS 07 with loop closure, its
+    /// return to the start fitted at scale 0.4) was cut into pieces of two
+    /// poses, one of which the final solve kept, moving the path 0.34 ->
+    /// 0.40 m. A loop too short for [`PIECE_POSES`] in each piece stays
+    /// whole.
     #[test]
     fn a_loop_too_short_for_its_pieces_stays_whole() {
         let sparse = |p: &[Vector3<f64>]| p.iter().step_by(40).copied().collect::<Vec<_>>();
