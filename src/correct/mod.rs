@@ -41,6 +41,7 @@ pub mod config;
 pub mod g2o;
 pub mod graph;
 pub mod loops;
+pub mod pieces;
 pub mod solve;
 
 mod drift;
