@@ -29,10 +29,11 @@
 //! A long revisit whose later pass the drift bends away from the earlier
 //! one is fitted there in pieces, each with its own similarity and a share
 //! of the loop's information, so the graph can follow the drift along it.
-//! The final solve also takes the loops levelled: the search fits shapes in the path's plane
-//! and leaves each loop the height difference the odometry has between its
-//! passes, which the choice needs (a look-alike on a hill differs in
-//! height) but which the final solve would hold as the truth.
+//! The final solve also takes the loops levelled: the search fits shapes
+//! in the path's plane and leaves each loop the height difference the
+//! odometry has between its passes, which the choice needs (a look-alike
+//! on a hill differs in height) but which the final solve would hold as
+//! the truth.
 
 // Frame names as in Sophus: `a_T_b` maps points from b to a.
 #![allow(non_snake_case)]
