@@ -205,14 +205,16 @@ pub fn correct_again_from(
     // The final solve takes the chosen loops in pieces
     // (LoopClosure::pieces), levelled (LoopClosure::levelled).
     let positions = path.positions();
-    let (mut pieces, mut owner) = (Vec::new(), Vec::new());
+    let (mut pieces, mut owner, mut levelled) = (Vec::new(), Vec::new(), Vec::new());
     for (id, l) in loops.iter().enumerate() {
+        let whole = l.levelled(&positions);
         let cut = match chosen[id] {
-            true => l.pieces(&positions, config.loop_pieces),
-            false => vec![l.clone()],
+            true => whole.pieces(&positions, config.loop_pieces),
+            false => vec![whole.clone()],
         };
         owner.extend(std::iter::repeat_n(id, cut.len()));
-        pieces.extend(cut.iter().map(|p| p.levelled(&positions)));
+        pieces.extend(cut);
+        levelled.push(whole);
     }
     let graph = PoseGraph::build(
         path,
@@ -228,7 +230,6 @@ pub fn correct_again_from(
         .and_then(|p| start_from(&graph, p, &p.solution))
         .unwrap_or_else(|| graph.poses.clone());
     let (active, solution) = settle(&graph, &start_final, &pieces, start_active, config)?;
-    let levelled: Vec<LoopClosure> = loops.iter().map(|l| l.levelled(&positions)).collect();
     let verdicts = levelled
         .into_iter()
         .enumerate()
