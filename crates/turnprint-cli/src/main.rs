@@ -125,8 +125,8 @@ enum Command {
         /// first one's frame, or that it was not merged.
         #[arg(long)]
         json: bool,
-        /// Also draw both paths and the common part (SVG or PNG by
-        /// extension; two paths).
+        /// Also draw the paths in the first one's frame and the common
+        /// parts that placed them (SVG or PNG by extension).
         #[arg(long)]
         plot: Option<PathBuf>,
         /// Input format of the files.
@@ -748,10 +748,10 @@ fn run_merge_many(
     format: Format,
     min_score: f64,
 ) -> Result<(), Failure> {
-    if plot.is_some() || min_score > 0.0 {
+    if min_score > 0.0 {
         return Err(
-            "--plot and --min-score take two paths; with more, merge reports \
-                    what it placed and through which overlap"
+            "--min-score takes two paths; with more, merge reports what it \
+                    placed and through which overlap"
                 .into(),
         );
     }
@@ -772,11 +772,14 @@ fn run_merge_many(
     progress.stage("matching every pair");
     let placement =
         pipeline::merge_many(&trajectories, &Config::for_matching()).map_err(|e| e.to_string())?;
+    let placed_paths: Vec<Option<Trajectory>> = trajectories
+        .iter()
+        .zip(&placement.frames)
+        .map(|(t, frame)| frame.as_ref().map(|f| pipeline::merge::placed(t, f)))
+        .collect();
     let mut poses = Vec::new();
-    for (t, frame) in trajectories.iter().zip(&placement.frames) {
-        if let Some(frame) = frame {
-            poses.extend(pipeline::merge::placed(t, frame).poses);
-        }
+    for t in placed_paths.iter().flatten() {
+        poses.extend(t.poses.iter().cloned());
     }
     let merged = Trajectory {
         source: "merged".into(),
@@ -801,6 +804,19 @@ fn run_merge_many(
                 p.display()
             );
         }
+    }
+    if let Some(fig) = plot {
+        let positions: Vec<_> = placed_paths
+            .iter()
+            .map(|t| t.as_ref().map(Trajectory::positions))
+            .collect();
+        let overlaps: Vec<_> = placement
+            .used
+            .iter()
+            .map(|o| (o.a, o.b, o.hypothesis.a_range, o.hypothesis.b_range))
+            .collect();
+        turnprint_cli::plot::plot_placement(fig, &positions, &overlaps)
+            .map_err(|e| e.to_string())?;
     }
     if json {
         let names: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();

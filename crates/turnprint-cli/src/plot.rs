@@ -2,7 +2,9 @@
 //! already mapped into A's frame, drawn in one top view, with the common
 //! part and the correspondences of the hypothesis; and of the loops of one
 //! path: the path, each loop's query and match parts in its own colour, and
-//! its correspondences.
+//! its correspondences; and of a merge of many paths: each placed path in
+//! its own colour in the first one's frame, with the overlaps that placed
+//! them.
 //!
 //! The view is an orthographic projection onto A's best-fit plane. The plane
 //! is the span of the two largest principal axes of A's positions
@@ -92,8 +94,28 @@ pub fn plot_correction(
     )
 }
 
+/// One path of a placement figure: its positions in the first path's
+/// frame, or `None` where it was not merged.
+pub type Placed = Option<Vec<Vector3<f64>>>;
+
+/// One overlap of a placement figure: the two paths' indices and the pose
+/// ranges they share.
+pub type OverlapMark = (usize, usize, [usize; 2], [usize; 2]);
+
+/// Draws every merged path of a many-path merge in the first path's frame,
+/// each in its own colour (`P1`, `P2`, ... in input order), with the common
+/// parts of the overlaps that placed them drawn wide.
+pub fn plot_placement(out: &Path, paths: &[Placed], overlaps: &[OverlapMark]) -> Result<()> {
+    render(out, &Figure::Placement { paths, overlaps })
+}
+
 /// What a figure shows.
 enum Figure<'a> {
+    /// Many paths placed in the first one's frame, and the overlaps used.
+    Placement {
+        paths: &'a [Placed],
+        overlaps: &'a [OverlapMark],
+    },
     /// A path before and after drift correction, and its loops.
     Correction {
         before: &'a [Vector3<f64>],
@@ -118,19 +140,26 @@ impl Figure<'_> {
     fn reference(&self) -> (&[Vector3<f64>], &'static str) {
         match self {
             Figure::Merge { a, .. } => (a, "path A"),
+            Figure::Placement { paths, .. } => (
+                paths.first().and_then(|p| p.as_deref()).unwrap_or(&[]),
+                "the first path",
+            ),
             Figure::Loops { path, .. } => (path, "the path"),
             Figure::Correction { after, .. } => (after, "the corrected path"),
         }
     }
 
     /// Every point drawn.
-    fn points(&self) -> impl Iterator<Item = &Vector3<f64>> {
+    fn points(&self) -> Box<dyn Iterator<Item = &Vector3<f64>> + '_> {
         let (first, second): (&[Vector3<f64>], &[Vector3<f64>]) = match self {
             Figure::Merge { a, b_in_a, .. } => (a, b_in_a),
             Figure::Loops { path, .. } => (path, &[]),
             Figure::Correction { before, after, .. } => (after, before),
+            Figure::Placement { paths, .. } => {
+                return Box::new(paths.iter().flatten().flatten());
+            }
         };
-        first.iter().chain(second)
+        Box::new(first.iter().chain(second))
     }
 }
 
@@ -327,6 +356,7 @@ fn draw<DB: DrawingBackend>(
     } = match figure {
         Figure::Merge { a, b_in_a, h } => merge_drawing(view, a, b_in_a, h),
         Figure::Loops { path, loops } => loops_drawing(view, path, loops),
+        Figure::Placement { paths, overlaps } => placement_drawing(view, paths, overlaps),
         Figure::Correction {
             before,
             after,
@@ -351,7 +381,14 @@ fn draw<DB: DrawingBackend>(
     // part of a path, wherever it were put.
     let mut x = MARGIN as i32;
     let y = 72;
+    let (right, _) = title.dim_in_pixel();
     for (colour, width, label) in legend {
+        // A legend of many paths stops at the figure's edge.
+        let (w, _) = title.estimate_text_size(&label, &small).map_err(err)?;
+        if x + 30 + w as i32 > right as i32 - MARGIN as i32 {
+            title.draw_text("...", &small, (x, y - 8)).map_err(err)?;
+            break;
+        }
         title
             .draw(&PathElement::new(
                 vec![(x, y), (x + 24, y)],
@@ -361,7 +398,6 @@ fn draw<DB: DrawingBackend>(
         title
             .draw_text(&label, &small, (x + 30, y - 8))
             .map_err(err)?;
-        let (w, _) = title.estimate_text_size(&label, &small).map_err(err)?;
         x += 30 + w as i32 + 24;
     }
     root.present().map_err(err)
@@ -474,6 +510,58 @@ fn correction_drawing(
     let heading = [
         format!("drift correction: {} poses", after.len()),
         format!("{kept} loops kept, {} rejected", loops.len() - kept),
+    ];
+    Drawing {
+        lines,
+        legend,
+        heading,
+    }
+}
+
+/// A placement: each merged path in its own colour, the common parts of
+/// the overlaps used wide, in the colours of their two paths.
+fn placement_drawing(view: &View, paths: &[Placed], overlaps: &[OverlapMark]) -> Drawing {
+    let colour = |i: usize| LOOP_COLOURS[i % LOOP_COLOURS.len()];
+    let projected: Vec<Option<Vec<(f64, f64)>>> = paths
+        .iter()
+        .map(|p| p.as_deref().map(|p| project(view, p)))
+        .collect();
+    let mut lines = Vec::new();
+    for &(a, b, a_range, b_range) in overlaps {
+        for (k, range) in [(a, a_range), (b, b_range)] {
+            if let Some(Some(p2)) = projected.get(k) {
+                lines.push((part(p2, range), lighter(colour(k)), 7));
+            }
+        }
+    }
+    for (k, p2) in projected.iter().enumerate() {
+        if let Some(p2) = p2 {
+            lines.push((p2.clone(), colour(k), 2));
+        }
+    }
+    let legend = projected
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.is_some())
+        .map(|(k, _)| (colour(k), 3, format!("P{}", k + 1)))
+        .collect();
+    let placed = projected.iter().filter(|p| p.is_some()).count();
+    let left_out: Vec<String> = projected
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.is_none())
+        .map(|(k, _)| format!("P{}", k + 1))
+        .collect();
+    let heading = [
+        format!(
+            "{placed} of {} paths placed in P1's frame; wide: the overlaps that placed them",
+            paths.len()
+        ),
+        if left_out.is_empty() {
+            "every path merged".to_string()
+        } else {
+            format!("not merged: {}", left_out.join(", "))
+        },
     ];
     Drawing {
         lines,

@@ -601,7 +601,8 @@ fn a_score_threshold_outside_0_to_1_is_refused() {
 /// `merge P1 P2 P3 ...`: four GPS tracks of one walk (three devices up,
 /// one down; each GPX file in a frame of its own, so the true similarity is
 /// a translation) are placed into the first one's frame, and a KITTI drive
-/// that shares none of their road is reported as not merged.
+/// that shares none of their road is reported as not merged, and drawn
+/// as such in the figure.
 #[test]
 fn merge_of_many_paths_places_the_walks_and_leaves_the_drive_out() {
     let walk = |name: &str| data(&format!("multisession/gpx_same_route/routage/{name}.gpx"));
@@ -616,6 +617,7 @@ fn merge_of_many_paths_places_the_walks_and_leaves_the_drive_out() {
     };
     let dir = tempfile::tempdir().unwrap();
     let out_tum = dir.path().join("merged.tum");
+    let figure = dir.path().join("merged.svg");
     let out = turnprint_ok(&[
         "merge",
         &up,
@@ -626,7 +628,12 @@ fn merge_of_many_paths_places_the_walks_and_leaves_the_drive_out() {
         "-o",
         out_tum.to_str().unwrap(),
         "--json",
+        "--plot",
+        figure.to_str().unwrap(),
     ]);
+    let svg = std::fs::read_to_string(&figure).unwrap();
+    assert!(svg.contains("4 of 5 paths placed"), "figure title");
+    assert!(svg.contains("not merged: P3"), "figure names the drive");
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let paths = v["paths"].as_array().unwrap();
     assert_eq!(paths.len(), 5);
