@@ -385,7 +385,7 @@ fn draw<DB: DrawingBackend>(
     for (colour, width, label) in legend {
         // A legend of many paths stops at the figure's edge.
         let (w, _) = title.estimate_text_size(&label, &small).map_err(err)?;
-        if x + 30 + w as i32 > right as i32 - MARGIN as i32 {
+        if x + 30 + w as i32 > right as i32 {
             title.draw_text("...", &small, (x, y - 8)).map_err(err)?;
             break;
         }
@@ -398,7 +398,7 @@ fn draw<DB: DrawingBackend>(
         title
             .draw_text(&label, &small, (x + 30, y - 8))
             .map_err(err)?;
-        x += 30 + w as i32 + 24;
+        x += 30 + w as i32 + 16;
     }
     root.present().map_err(err)
 }

@@ -169,3 +169,45 @@ fn loops_figure_names_every_loop_and_its_score() {
     let err = plot_loops(&dir.path().join("e.svg"), &[], &loops).unwrap_err();
     assert!(err.to_string().contains("no poses"), "{err}");
 }
+
+/// A merge of many paths: every merged path named in the legend until it
+/// reaches the figure's edge, the rest cut short with "...", the paths not
+/// merged named in the title; an empty first path is an input error.
+#[test]
+fn placement_figure_names_the_merged_paths_and_those_left_out() {
+    use turnprint_cli::plot::plot_placement;
+    // Forty circles of a generated fixture, every fifth not merged.
+    let circle = |k: usize| -> Vec<Vector3<f64>> {
+        (0..100)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 100.0;
+                Vector3::new(k as f64 + a.cos(), a.sin(), 0.0)
+            })
+            .collect()
+    };
+    let paths: Vec<Option<Vec<Vector3<f64>>>> =
+        (0..40).map(|k| (k % 5 != 4).then(|| circle(k))).collect();
+    let overlaps = [(0, 1, [0, 30], [10, 40])];
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("many.svg");
+    plot_placement(&out, &paths, &overlaps).unwrap();
+    let (_, texts) = svg_contents(&std::fs::read_to_string(&out).unwrap());
+    assert!(
+        texts.iter().any(|t| t.starts_with("32 of 40 paths placed")),
+        "{texts:?}"
+    );
+    assert!(
+        texts.iter().any(|t| t.starts_with("not merged: P5, P10")),
+        "{texts:?}"
+    );
+    assert!(texts.iter().any(|t| t == "P1") && texts.iter().any(|t| t == "P2"));
+    assert!(
+        texts.iter().any(|t| t == "..."),
+        "legend not cut at the edge"
+    );
+    assert!(!texts.iter().any(|t| t == "P39"), "legend past the edge");
+    let mut none_first = paths.clone();
+    none_first[0] = Some(Vec::new());
+    let err = plot_placement(&dir.path().join("m.svg"), &none_first, &[]).unwrap_err();
+    assert!(matches!(err, Error::Input { .. }), "{err:?}");
+}
