@@ -786,25 +786,6 @@ fn run_merge_many(
         poses,
     };
     write_tum(output, &merged).map_err(|e| e.to_string())?;
-    let placed = placement.frames.iter().filter(|f| f.is_some()).count();
-    eprintln!(
-        "placed {placed} of {} paths in the frame of {} ({} poses into {}); overlaps used {}, \
-         contradicted {}",
-        paths.len(),
-        paths[0].display(),
-        merged.len(),
-        output.display(),
-        placement.used.len(),
-        placement.contradicted.len()
-    );
-    for (p, f) in paths.iter().zip(&placement.frames) {
-        if f.is_none() {
-            eprintln!(
-                "not merged: {} overlaps none of the placed paths",
-                p.display()
-            );
-        }
-    }
     if let Some(fig) = plot {
         let positions: Vec<_> = placed_paths
             .iter()
@@ -817,6 +798,26 @@ fn run_merge_many(
             .collect();
         turnprint_cli::plot::plot_placement(fig, &positions, &overlaps)
             .map_err(|e| e.to_string())?;
+    }
+    let placed = placement.frames.iter().filter(|f| f.is_some()).count();
+    eprintln!(
+        "placed {placed} of {} paths in the frame of {} ({} poses into {}{}); overlaps used {}, \
+         contradicted {}",
+        paths.len(),
+        paths[0].display(),
+        merged.len(),
+        output.display(),
+        plot.map_or(String::new(), |p| format!(", figure {}", p.display())),
+        placement.used.len(),
+        placement.contradicted.len()
+    );
+    for (p, f) in paths.iter().zip(&placement.frames) {
+        if f.is_none() {
+            eprintln!(
+                "not merged: {} overlaps none of the placed paths",
+                p.display()
+            );
+        }
     }
     if json {
         let names: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();

@@ -633,6 +633,8 @@ fn merge_of_many_paths_places_the_walks_and_leaves_the_drive_out() {
     ]);
     let svg = std::fs::read_to_string(&figure).unwrap();
     assert!(svg.contains("4 of 5 paths placed"), "figure title");
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.contains("merged.svg"), "the figure not named: {said}");
     assert!(svg.contains("not merged: P3"), "figure names the drive");
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let paths = v["paths"].as_array().unwrap();
