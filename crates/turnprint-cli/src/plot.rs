@@ -320,6 +320,11 @@ const LOOP_COLOURS: [RGBColor; 10] = [
 ];
 const PATH_COLOUR: RGBColor = RGBColor(160, 160, 160);
 
+/// The colour of the `i`-th loop or path ([`LOOP_COLOURS`], repeated).
+fn nth_colour(i: usize) -> RGBColor {
+    LOOP_COLOURS[i % LOOP_COLOURS.len()]
+}
+
 /// Draws the figure on `root`; errors as text (the backend's error types
 /// differ).
 fn draw<DB: DrawingBackend>(
@@ -521,7 +526,6 @@ fn correction_drawing(
 /// A placement: each merged path in its own colour, the common parts of
 /// the overlaps used wide, in the colours of their two paths.
 fn placement_drawing(view: &View, paths: &[Placed], overlaps: &[OverlapMark]) -> Drawing {
-    let colour = |i: usize| LOOP_COLOURS[i % LOOP_COLOURS.len()];
     let projected: Vec<Option<Vec<(f64, f64)>>> = paths
         .iter()
         .map(|p| p.as_deref().map(|p| project(view, p)))
@@ -530,20 +534,20 @@ fn placement_drawing(view: &View, paths: &[Placed], overlaps: &[OverlapMark]) ->
     for &(a, b, a_range, b_range) in overlaps {
         for (k, range) in [(a, a_range), (b, b_range)] {
             if let Some(Some(p2)) = projected.get(k) {
-                lines.push((part(p2, range), lighter(colour(k)), 7));
+                lines.push((part(p2, range), lighter(nth_colour(k)), 7));
             }
         }
     }
     for (k, p2) in projected.iter().enumerate() {
         if let Some(p2) = p2 {
-            lines.push((p2.clone(), colour(k), 2));
+            lines.push((p2.clone(), nth_colour(k), 2));
         }
     }
     let legend = projected
         .iter()
         .enumerate()
         .filter(|(_, p)| p.is_some())
-        .map(|(k, _)| (colour(k), 3, format!("P{}", k + 1)))
+        .map(|(k, _)| (nth_colour(k), 3, format!("P{}", k + 1)))
         .collect();
     let placed = projected.iter().filter(|p| p.is_some()).count();
     let left_out: Vec<String> = projected
@@ -574,18 +578,17 @@ fn placement_drawing(view: &View, paths: &[Placed], overlaps: &[OverlapMark]) ->
 fn loops_drawing(view: &View, path: &[Vector3<f64>], loops: &[Hypothesis]) -> Drawing {
     let p2 = project(view, path);
     let mut lines = vec![(p2.clone(), PATH_COLOUR, 2)];
-    let colour = |i: usize| LOOP_COLOURS[i % LOOP_COLOURS.len()];
     // The best loop drawn last, on top; each query (later) part
     // wide, the part it revisits thinner and lighter.
     for (i, h) in loops.iter().enumerate().rev() {
-        lines.push((part(&p2, h.a_range), colour(i), 6));
-        lines.push((part(&p2, h.b_range), lighter(colour(i)), 3));
-        lines.extend(links(h, &p2, &p2).map(|l| (l.to_vec(), colour(i), 1)));
+        lines.push((part(&p2, h.a_range), nth_colour(i), 6));
+        lines.push((part(&p2, h.b_range), lighter(nth_colour(i)), 3));
+        lines.extend(links(h, &p2, &p2).map(|l| (l.to_vec(), nth_colour(i), 1)));
     }
     let legend = loops
         .iter()
         .enumerate()
-        .map(|(i, h)| (colour(i), 4, format!("#{}", h.rank)))
+        .map(|(i, h)| (nth_colour(i), 4, format!("#{}", h.rank)))
         .collect();
     let scores: Vec<String> = loops.iter().map(|h| format!("{:.2}", h.score)).collect();
     let heading = [
