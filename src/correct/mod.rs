@@ -7,6 +7,7 @@
 //!      -> PoseGraph (keyframes, odometry edges, loop edges free along the road)
 //!      -> choice (apex-solver, least squares, rise of the cost, best loop first)
 //!      -> drift measured from the chosen loops, and the loops it explains
+//!         (checked by leaving each kept loop out: held_out)
 //!      -> final solve, each loop's passes laid at one height
 //!         (LoopClosure::levelled, on a path that keeps to a surface),
 //!         a loop its one similarity misfits cut into pieces
@@ -46,6 +47,7 @@ pub mod pieces;
 pub mod solve;
 
 mod drift;
+mod held_out;
 
 pub use config::{CorrectConfig, Group, LoopNoise, OdometryNoise};
 pub use graph::PoseGraph;
@@ -216,20 +218,48 @@ pub fn correct_again_from(
         pieces.extend(cut);
         levelled.push(whole);
     }
-    let graph = PoseGraph::build(
-        path,
-        &pieces,
-        &CorrectConfig {
-            odometry: config.odometry.scaled(k),
-            ..fit
-        },
-    )?;
-    let start_active = owner.iter().map(|&id| chosen[id]).collect();
+    let at = |k: f64| {
+        PoseGraph::build(
+            path,
+            &pieces,
+            &CorrectConfig {
+                odometry: config.odometry.scaled(k.min(1.0)),
+                ..fit.clone()
+            },
+        )
+    };
+    let graph = at(k)?;
+    let start_active: Vec<bool> = owner.iter().map(|&id| chosen[id]).collect();
     // The pieces add keyframes: the final graph's start is its own.
     let start_final = previous
         .and_then(|p| start_from(&graph, p, &p.solution))
         .unwrap_or_else(|| graph.poses.clone());
-    let (active, solution) = settle(&graph, &start_final, &pieces, start_active, config)?;
+    let (active, solution) = settle(&graph, &start_final, &pieces, start_active.clone(), config)?;
+    // The measured drift checked by the loops themselves
+    // (CorrectConfig::check_drift): each kept loop left out, do the others
+    // bring its passes closer at a looser odometry?
+    let ids: Vec<usize> = (0..loops.len())
+        .filter(|&id| pieces_of(&owner, id).iter().any(|&p| active[p]))
+        .collect();
+    let (graph, active, solution) = if config.check_drift && ids.len() >= 2 && k < 1.0 {
+        let looser = at(k * held_out::LOOSER)?;
+        let held_out = held_out::Check {
+            path,
+            solution: &solution,
+            active: &active,
+            owner: &owner,
+            levelled: &levelled,
+            max_iterations: config.max_iterations,
+        };
+        if held_out.prefers(&graph, &looser, &ids)? {
+            let (a, s) = settle(&looser, &solution, &pieces, start_active, config)?;
+            (looser, a, s)
+        } else {
+            (graph, active, solution)
+        }
+    } else {
+        (graph, active, solution)
+    };
     let verdicts = levelled
         .into_iter()
         .enumerate()
@@ -528,6 +558,11 @@ fn carry(path: &Trajectory, graph: &PoseGraph, solution: &[Similarity3]) -> Vec<
     let positions = path.positions();
     let arc = graph::arc_length(&positions);
     let corrections = corrections(graph, solution);
+    // One rotation per keyframe, not two per pose: an SVD each.
+    let rotations: Vec<UnitQuaternion<f64>> = corrections
+        .iter()
+        .map(|c| UnitQuaternion::from_rotation_matrix(&nearest_rotation(&c.rotation)))
+        .collect();
     let mut node = 0;
     path.poses
         .iter()
@@ -548,8 +583,7 @@ fn carry(path: &Trajectory, graph: &PoseGraph, solution: &[Similarity3]) -> Vec<
             let (ca, cb) = (&corrections[a], &corrections[b]);
             let position = (1.0 - w) * ca.apply(&pose.position) + w * cb.apply(&pose.position);
             let orientation = pose.orientation.map(|q| {
-                let ra = UnitQuaternion::from_rotation_matrix(&nearest_rotation(&ca.rotation));
-                let rb = UnitQuaternion::from_rotation_matrix(&nearest_rotation(&cb.rotation));
+                let (ra, rb) = (rotations[a], rotations[b]);
                 let r = ra.try_slerp(&rb, w, 1e-9).unwrap_or(ra);
                 r * q
             });
