@@ -248,16 +248,15 @@ pub struct CorrectConfig {
     pub rigid_loops: bool,
     /// Check the measured drift against the loops themselves: each kept
     /// loop is left out in turn, and where the others bring its two passes
-    /// closer at a looser odometry (the measured factor times 3), the final
-    /// solve takes that. The factor is measured from each loop's misses
-    /// alone, and misses that are the loops' own (a lane's offset, a
-    /// flight's passes a metre apart) look like drift as much as drift
-    /// does; only drift that one loop shows is also where the others put
-    /// it. On by default (KITTI's drifting LiDAR and stereo odometry: sum
-    /// of APE 447.4 -> 440.9 m, every ground truth and EuRoC estimate
-    /// unchanged; EVALUATION.md, "Drift correction"); it costs two solves
-    /// per kept loop, so the stream's worker, with its budget per
-    /// re-optimisation, does without it.
+    /// closer at a looser odometry (the measured factor times 3), or else
+    /// at a stiffer one (over 3) that keeps every loop, the final solve
+    /// takes that. The factor is measured from each loop's misses alone,
+    /// and misses that are the loops' own (a lane's offset, a flight's
+    /// passes a metre apart) look like drift as much as drift does; only
+    /// drift that one loop shows is also where the others put it
+    /// (EVALUATION.md, "Drift correction"). It costs two or three solves
+    /// per kept loop, spread over the cores, so the stream's worker, with
+    /// its budget per re-optimisation, does without it.
     pub check_drift: bool,
     /// Odometry edge noise.
     pub odometry: OdometryNoise,

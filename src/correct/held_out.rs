@@ -1,10 +1,12 @@
 //! The measured drift checked by the loops themselves
 //! (`CorrectConfig::check_drift`): each kept loop is left out in turn and
 //! the others predict where its two passes lie, at the measured odometry
-//! and at a looser one. Drift that one loop shows is also where the others
-//! put it; misses that are a loop's own (a lane's offset, a flight's passes
-//! a metre apart) are not, so a looser odometry brings the left-out passes
-//! closer only where the path drifts more than the misses alone said.
+//! and at a looser and a stiffer one. Drift that one loop shows is also
+//! where the others put it; misses that are a loop's own (a lane's offset,
+//! a flight's passes a metre apart) are not. A looser odometry brings the
+//! left-out passes closer where the path drifts more than the misses alone
+//! said, a stiffer one where the misses were the loops' own and the
+//! measured drift bent the path to fit them.
 
 use super::graph::PoseGraph;
 use super::{carry, pieces_of, solve, LoopClosure};
@@ -12,17 +14,17 @@ use crate::geometry::Similarity3;
 use crate::trajectory::{Pose, Trajectory};
 use crate::Result;
 
-/// The looser odometry the measured drift is checked against, times the
-/// measured factor: half a decade, the factor's own uncertainty from a
-/// handful of loops (measured factors of one estimate vary 2-5x with the
-/// loops chosen). A full decade went too far on KITTI: MULLS 00 1.39 ->
-/// 1.60 m, GICP 02 20.0 -> 24.3 m.
-pub(super) const LOOSER: f64 = 3.0;
+/// The factor on the measured odometry noise the check tries either way:
+/// half a decade, the measured factor's own uncertainty from a handful of
+/// loops (measured factors of one estimate vary 2-5x with the loops
+/// chosen). A full decade looser went too far on KITTI (MULLS 00 1.39 ->
+/// 1.60 m, GICP 02 20.0 -> 24.3 m).
+pub(super) const STEP: f64 = 3.0;
 
-/// How much closer, in sum, the left-out loops' passes must come at the
-/// looser odometry: 2 %, past the few centimetres a re-solved path moves
-/// by where nothing changed.
-const LOOSER_SHOWN: f64 = 0.98;
+/// How much closer, in sum, the left-out loops' passes must come at
+/// another odometry than at the measured one: 2 %, past the few
+/// centimetres a re-solved path moves by where nothing changed.
+const SHOWN: f64 = 0.98;
 
 /// The final solve's result, to leave loops out of.
 pub(super) struct Check<'a> {
@@ -39,40 +41,28 @@ pub(super) struct Check<'a> {
 }
 
 impl Check<'_> {
-    /// Whether `looser` (the graph at a looser odometry than `tight`)
-    /// brings the passes of the loops `ids`, each left out in turn, closer
-    /// in sum by [`LOOSER_SHOWN`].
-    pub fn prefers(&self, tight: &PoseGraph, looser: &PoseGraph, ids: &[usize]) -> Result<bool> {
-        // Every (graph, left-out loop) solve is independent: spread over the
-        // cores. Each costs its set-up more than its iterations (a solve
-        // capped at one iteration takes two thirds of the time of one run
-        // to convergence), so the cap is the configured one.
-        let cases: Vec<(bool, usize)> = [false, true]
-            .into_iter()
-            .flat_map(|loose| ids.iter().map(move |&id| (loose, id)))
-            .collect();
-        let distances = crate::parallel::map(&cases, |&(loose, id)| {
-            let graph = if loose { looser } else { tight };
+    /// The sum over the loops `ids`, each left out of `graph` in turn, of
+    /// how far apart the others put its passes ([`apart`]).
+    pub fn apart_sum(&self, graph: &PoseGraph, ids: &[usize]) -> Result<f64> {
+        // Every left-out solve is independent: spread over the cores. Each
+        // costs its set-up more than its iterations (a solve capped at one
+        // iteration takes two thirds of the time of one run to
+        // convergence), so the cap is the configured one.
+        let distances = crate::parallel::map(ids, |&id| {
             let mut without = self.active.to_vec();
             for p in pieces_of(self.owner, id) {
                 without[p] = false;
             }
             let solved = solve::optimise(graph, self.solution, &without, self.max_iterations);
-            Some(solved.map(|s| {
-                (
-                    loose,
-                    apart(&carry(self.path, graph, &s), &self.levelled[id]),
-                )
-            }))
+            Some(solved.map(|s| apart(&carry(self.path, graph, &s), &self.levelled[id])))
         });
-        let (mut tight_sum, mut loose_sum) = (0.0, 0.0);
-        for d in distances {
-            match d? {
-                (true, d) => loose_sum += d,
-                (false, d) => tight_sum += d,
-            }
-        }
-        Ok(loose_sum < LOOSER_SHOWN * tight_sum)
+        distances.into_iter().sum()
+    }
+
+    /// Whether `graph` brings the left-out passes closer than the sum
+    /// `measured` (at the measured odometry) by [`SHOWN`].
+    pub fn closer(&self, graph: &PoseGraph, ids: &[usize], measured: f64) -> Result<bool> {
+        Ok(self.apart_sum(graph, ids)? < SHOWN * measured)
     }
 }
 

@@ -237,13 +237,12 @@ pub fn correct_again_from(
     let (active, solution) = settle(&graph, &start_final, &pieces, start_active.clone(), config)?;
     // The measured drift checked by the loops themselves
     // (CorrectConfig::check_drift): each kept loop left out, do the others
-    // bring its passes closer at a looser odometry?
+    // bring its passes closer at a looser or a stiffer odometry?
     let ids: Vec<usize> = (0..loops.len())
         .filter(|&id| pieces_of(&owner, id).iter().any(|&p| active[p]))
         .collect();
-    let (graph, active, solution) = if config.check_drift && ids.len() >= 2 && k < 1.0 {
-        let looser = at(k * held_out::LOOSER)?;
-        let held_out = held_out::Check {
+    let (graph, active, solution) = if config.check_drift && ids.len() >= 2 {
+        let check = held_out::Check {
             path,
             solution: &solution,
             active: &active,
@@ -251,12 +250,31 @@ pub fn correct_again_from(
             levelled: &levelled,
             max_iterations: config.max_iterations,
         };
-        if held_out.prefers(&graph, &looser, &ids)? {
-            let (a, s) = settle(&looser, &solution, &pieces, start_active, config)?;
-            (looser, a, s)
-        } else {
-            (graph, active, solution)
+        let measured = check.apart_sum(&graph, &ids)?;
+        // More drift than measured is asked first, then less: where the
+        // left-out loops come closer either way, the looser odometry has
+        // them agree on drift, which is what loops are for; the stiffer
+        // one only says that their misses are their own.
+        let mut checked = None;
+        if k < 1.0 {
+            let looser = at(k * held_out::STEP)?;
+            if check.closer(&looser, &ids, measured)? {
+                let (a, s) = settle(&looser, &solution, &pieces, start_active.clone(), config)?;
+                checked = Some((looser, a, s));
+            }
         }
+        if checked.is_none() {
+            let stiffer = at(k / held_out::STEP)?;
+            if check.closer(&stiffer, &ids, measured)? {
+                let (a, s) = settle(&stiffer, &solution, &pieces, start_active, config)?;
+                // A stiffer odometry claims the loops' misses are their
+                // own: where it turns some of them away, they are not.
+                if a == active {
+                    checked = Some((stiffer, a, s));
+                }
+            }
+        }
+        checked.unwrap_or((graph, active, solution))
     } else {
         (graph, active, solution)
     };
