@@ -134,34 +134,13 @@ fn misses_the_loops_do_not_agree_on_leave_the_path_stiff() {
     let (_, after, kept) = ape_after(&gt, &gt.positions());
     assert!(kept >= 2, "{kept} loops kept");
     assert!(after < 0.3, "ground truth 02: APE 0 -> {after:.2}");
-    let Some(gt00) = shared("kitti_gt/00.txt") else {
+    let Some((est, truth)) = common::euroc_vio("mono VIO", "V2_01") else {
         return;
     };
-    let dir = gt00.ancestors().nth(2).expect("<data>/kitti_gt/00.txt");
-    let Some(v) = turnprint_eval::kinds::catalog::euroc_vio_estimates(dir)
-        .into_iter()
-        .find(|v| v.method == "mono VIO" && v.session == "V2_01")
-    else {
-        eprintln!(
-            "skipped: EuRoC V2_01's monocular VIO estimate is not in {}",
-            dir.display()
-        );
-        return;
-    };
-    let est = read_trajectory(&dir.join(&v.estimate), Format::Auto).unwrap();
-    let gt = read_trajectory(&dir.join(v.truth), Format::Auto).unwrap();
-    let truth = turnprint_eval::kinds::catalog::truth_at_times(&est, &gt);
     let corrected = correct(&est, &CorrectConfig::default()).expect("corrects");
-    let ape_of = |poses: Vec<Vector3<f64>>| {
-        let (p, t): (Vec<_>, Vec<_>) = poses
-            .iter()
-            .zip(&truth)
-            .filter_map(|(p, t)| Some((*p, (*t)?)))
-            .unzip();
-        ape(&p, &t, Alignment::Se3).unwrap().rmse
-    };
-    let before = ape_of(est.positions());
-    let after = ape_of(corrected.poses.iter().map(|p| p.position).collect());
+    let before = common::ape_where_known(&est.positions(), &truth);
+    let after: Vec<_> = corrected.poses.iter().map(|p| p.position).collect();
+    let after = common::ape_where_known(&after, &truth);
     assert!(
         after <= 1.05 * before,
         "V2_01: APE {before:.3} -> {after:.3}"

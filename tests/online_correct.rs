@@ -144,23 +144,9 @@ fn with_confirmed_input_only_handed_loops_enter() {
 /// 1.05x.
 #[test]
 fn a_drones_vio_streamed_with_correction_is_not_pulled_by_candidates_below_the_cut() {
-    let Some(gt00) = shared("kitti_gt/00.txt") else {
+    let Some((est, truth)) = common::euroc_vio("VI-SLAM", "MH_04") else {
         return;
     };
-    let dir = gt00.ancestors().nth(2).expect("<data>/kitti_gt/00.txt");
-    let Some(v) = turnprint_eval::kinds::catalog::euroc_vio_estimates(dir)
-        .into_iter()
-        .find(|v| v.method == "VI-SLAM" && v.session == "MH_04")
-    else {
-        eprintln!(
-            "skipped: EuRoC MH_04's VI-SLAM estimate is not in {}",
-            dir.display()
-        );
-        return;
-    };
-    let est = read_trajectory(&dir.join(&v.estimate), Format::Auto).unwrap();
-    let gt = read_trajectory(&dir.join(v.truth), Format::Auto).unwrap();
-    let truth = turnprint_eval::kinds::catalog::truth_at_times(&est, &gt);
     let mut d = correcting();
     for p in &est.poses {
         d.push(&PoseInput::from(p));
@@ -168,17 +154,8 @@ fn a_drones_vio_streamed_with_correction_is_not_pulled_by_candidates_below_the_c
     }
     let (_, _, finished) = d.finish_corrected();
     let corrected = finished.and_then(|f| f.corrected).expect("corrected");
-    let paired = |poses: &[Vector3<f64>]| -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
-        poses
-            .iter()
-            .zip(&truth)
-            .filter_map(|(p, t)| Some((*p, (*t)?)))
-            .unzip()
-    };
-    let (before, t) = paired(&est.positions());
-    let before = ape(&before, &t, Alignment::Se3).unwrap().rmse;
+    let before = common::ape_where_known(&est.positions(), &truth);
     let after: Vec<Vector3<f64>> = corrected.poses.iter().map(|p| p.position).collect();
-    let (after, t) = paired(&after);
-    let after = ape(&after, &t, Alignment::Se3).unwrap().rmse;
+    let after = common::ape_where_known(&after, &truth);
     assert!(after <= 1.05 * before, "APE {before:.3} -> {after:.3}");
 }

@@ -78,6 +78,42 @@ pub fn shared_dir(files: &[&str]) -> Option<std::path::PathBuf> {
     None
 }
 
+/// EuRoC VIO estimate `method` ("VI-SLAM" or "mono VIO") of `session`
+/// (e.g. "MH_04") and its session's truth at the estimate's times, or
+/// `None` after a line saying it is skipped.
+pub fn euroc_vio(
+    method: &str,
+    session: &str,
+) -> Option<(turnprint::Trajectory, Vec<Option<Vector3<f64>>>)> {
+    use turnprint::io::{read_trajectory, Format};
+    use turnprint_eval::kinds::catalog;
+    for dir in turnprint_eval::data::data_dirs() {
+        let found = catalog::euroc_vio_estimates(&dir)
+            .into_iter()
+            .find(|v| v.method == method && v.session == session);
+        if let Some(v) = found {
+            let est = read_trajectory(&dir.join(&v.estimate), Format::Auto).expect("readable");
+            let gt = read_trajectory(&dir.join(v.truth), Format::Auto).expect("readable");
+            let truth = catalog::truth_at_times(&est, &gt);
+            return Some((est, truth));
+        }
+    }
+    eprintln!("skipped: EuRoC {session}'s {method} estimate is in no data folder");
+    None
+}
+
+/// APE (RMSE, SE(3)-aligned) of `positions` against `truth` where it is
+/// known.
+pub fn ape_where_known(positions: &[Vector3<f64>], truth: &[Option<Vector3<f64>>]) -> f64 {
+    use turnprint_eval::ape::{ape, Alignment};
+    let (p, t): (Vec<_>, Vec<_>) = positions
+        .iter()
+        .zip(truth)
+        .filter_map(|(p, t)| Some((*p, (*t)?)))
+        .unzip();
+    ape(&p, &t, Alignment::Se3).expect("aligned").rmse
+}
+
 /// The positions of KITTI ground truth `name` (`kitti_gt/{name}.txt`), or
 /// `None` after a line saying it is skipped.
 pub fn kitti_gt(name: &str) -> Option<Vec<Vector3<f64>>> {
