@@ -19,12 +19,15 @@ use crate::Result;
 /// loops (measured factors of one estimate vary 2-5x with the loops
 /// chosen). A full decade looser went too far on KITTI (MULLS 00 1.39 ->
 /// 1.60 m, GICP 02 20.0 -> 24.3 m).
-pub(super) const STEP: f64 = 3.0;
+const STEP: f64 = 3.0;
 
 /// How much closer, in sum, the left-out loops' passes must come at
 /// another odometry than at the measured one: 2 %, past the few
 /// centimetres a re-solved path moves by where nothing changed.
 const SHOWN: f64 = 0.98;
+
+/// A graph, the loop pieces its solve keeps, and its nodes.
+pub(super) type Solved = (PoseGraph, Vec<bool>, Vec<Similarity3>);
 
 /// The final solve's result, to leave loops out of.
 pub(super) struct Check<'a> {
@@ -41,9 +44,50 @@ pub(super) struct Check<'a> {
 }
 
 impl Check<'_> {
+    /// The final solve checked: `None` where the graph at the measured
+    /// factor `k`, `graph`, stands, or the graph at another factor
+    /// (`at(factor)`) and its solution (`settle(graph)`, from the final
+    /// one) where the left-out loops say so.
+    pub fn checked(
+        &self,
+        graph: &PoseGraph,
+        k: f64,
+        at: impl Fn(f64) -> Result<PoseGraph>,
+        settle: impl Fn(&PoseGraph) -> Result<(Vec<bool>, Vec<Similarity3>)>,
+    ) -> Result<Option<Solved>> {
+        let ids: Vec<usize> = (0..self.levelled.len())
+            .filter(|&id| pieces_of(self.owner, id).iter().any(|&p| self.active[p]))
+            .collect();
+        if ids.len() < 2 {
+            return Ok(None);
+        }
+        let measured = self.apart_sum(graph, &ids)?;
+        // More drift than measured is asked first, then less: where the
+        // left-out loops come closer either way, the looser odometry has
+        // them agree on drift, which is what loops are for; the stiffer one
+        // only says that their misses are their own.
+        if k < 1.0 {
+            let looser = at(k * STEP)?;
+            if self.closer(&looser, &ids, measured)? {
+                let (active, solution) = settle(&looser)?;
+                return Ok(Some((looser, active, solution)));
+            }
+        }
+        let stiffer = at(k / STEP)?;
+        if self.closer(&stiffer, &ids, measured)? {
+            let (active, solution) = settle(&stiffer)?;
+            // A stiffer odometry claims the loops' misses are their own:
+            // where it turns some of them away, they are not.
+            if active == self.active {
+                return Ok(Some((stiffer, active, solution)));
+            }
+        }
+        Ok(None)
+    }
+
     /// The sum over the loops `ids`, each left out of `graph` in turn, of
     /// how far apart the others put its passes ([`apart`]).
-    pub fn apart_sum(&self, graph: &PoseGraph, ids: &[usize]) -> Result<f64> {
+    fn apart_sum(&self, graph: &PoseGraph, ids: &[usize]) -> Result<f64> {
         // Every left-out solve is independent: spread over the cores. Each
         // costs its set-up more than its iterations (a solve capped at one
         // iteration takes two thirds of the time of one run to
@@ -61,7 +105,7 @@ impl Check<'_> {
 
     /// Whether `graph` brings the left-out passes closer than the sum
     /// `measured` (at the measured odometry) by [`SHOWN`].
-    pub fn closer(&self, graph: &PoseGraph, ids: &[usize], measured: f64) -> Result<bool> {
+    fn closer(&self, graph: &PoseGraph, ids: &[usize], measured: f64) -> Result<bool> {
         Ok(self.apart_sum(graph, ids)? < SHOWN * measured)
     }
 }

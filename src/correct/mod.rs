@@ -236,48 +236,22 @@ pub fn correct_again_from(
         .unwrap_or_else(|| graph.poses.clone());
     let (active, solution) = settle(&graph, &start_final, &pieces, start_active.clone(), config)?;
     // The measured drift checked by the loops themselves
-    // (CorrectConfig::check_drift): each kept loop left out, do the others
-    // bring its passes closer at a looser or a stiffer odometry?
-    let ids: Vec<usize> = (0..loops.len())
-        .filter(|&id| pieces_of(&owner, id).iter().any(|&p| active[p]))
-        .collect();
-    let (graph, active, solution) = if config.check_drift && ids.len() >= 2 {
-        let check = held_out::Check {
-            path,
-            solution: &solution,
-            active: &active,
-            owner: &owner,
-            levelled: &levelled,
-            max_iterations: config.max_iterations,
-        };
-        let measured = check.apart_sum(&graph, &ids)?;
-        // More drift than measured is asked first, then less: where the
-        // left-out loops come closer either way, the looser odometry has
-        // them agree on drift, which is what loops are for; the stiffer
-        // one only says that their misses are their own.
-        let mut checked = None;
-        if k < 1.0 {
-            let looser = at(k * held_out::STEP)?;
-            if check.closer(&looser, &ids, measured)? {
-                let (a, s) = settle(&looser, &solution, &pieces, start_active.clone(), config)?;
-                checked = Some((looser, a, s));
-            }
-        }
-        if checked.is_none() {
-            let stiffer = at(k / held_out::STEP)?;
-            if check.closer(&stiffer, &ids, measured)? {
-                let (a, s) = settle(&stiffer, &solution, &pieces, start_active, config)?;
-                // A stiffer odometry claims the loops' misses are their
-                // own: where it turns some of them away, they are not.
-                if a == active {
-                    checked = Some((stiffer, a, s));
-                }
-            }
-        }
-        checked.unwrap_or((graph, active, solution))
-    } else {
-        (graph, active, solution)
+    // (CorrectConfig::check_drift).
+    let check = held_out::Check {
+        path,
+        solution: &solution,
+        active: &active,
+        owner: &owner,
+        levelled: &levelled,
+        max_iterations: config.max_iterations,
     };
+    let checked = match config.check_drift {
+        true => check.checked(&graph, k, at, |g| {
+            settle(g, &solution, &pieces, start_active.clone(), config)
+        })?,
+        false => None,
+    };
+    let (graph, active, solution) = checked.unwrap_or((graph, active, solution));
     let verdicts = levelled
         .into_iter()
         .enumerate()
