@@ -31,6 +31,7 @@ pub(super) type Solved = (PoseGraph, Vec<bool>, Vec<Similarity3>);
 
 /// The final solve's result, to leave loops out of.
 pub(super) struct Check<'a> {
+    /// The path corrected, carried along by each left-out solve.
     pub path: &'a Trajectory,
     /// The final solve's nodes, where each left-out solve starts.
     pub solution: &'a [Similarity3],
@@ -40,6 +41,7 @@ pub(super) struct Check<'a> {
     pub owner: &'a [usize],
     /// Each loop whole, whose passes are measured.
     pub levelled: &'a [LoopClosure],
+    /// Iterations of each left-out solve.
     pub max_iterations: usize,
 }
 
@@ -89,9 +91,8 @@ impl Check<'_> {
     /// how far apart the others put its passes ([`apart`]).
     fn apart_sum(&self, graph: &PoseGraph, ids: &[usize]) -> Result<f64> {
         // Every left-out solve is independent: spread over the cores. Each
-        // costs its set-up more than its iterations (a solve capped at one
-        // iteration takes two thirds of the time of one run to
-        // convergence), so the cap is the configured one.
+        // costs its set-up more than its iterations, so a lower cap than
+        // the configured one would save little.
         let distances = crate::parallel::map(ids, |&id| {
             let mut without = self.active.to_vec();
             for p in pieces_of(self.owner, id) {

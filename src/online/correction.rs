@@ -144,8 +144,9 @@ pub struct Link {
 impl Link {
     /// Starts the correction thread.
     pub fn spawn(config: CorrectConfig, input: LoopInput) -> Link {
-        // Two more solves per kept loop do not fit a re-optimisation's
-        // budget (BENCHMARKS.md: 50 ms at 10 000 poses).
+        // The drift check's two or three more solves per kept loop do not
+        // fit a re-optimisation's budget (BENCHMARKS.md: 50 ms at 10 000
+        // poses).
         let config = CorrectConfig {
             check_drift: false,
             ..config
