@@ -49,7 +49,7 @@ impl Check<'_> {
     /// The final solve checked: `None` where the graph at the measured
     /// factor `k`, `graph`, stands, or the graph at another factor
     /// (`at(factor)`) and its solution (`settle(graph)`, from the final
-    /// one) where the left-out loops say so.
+    /// one and the loops it kept) where the left-out loops say so.
     pub fn checked(
         &self,
         graph: &PoseGraph,

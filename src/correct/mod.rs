@@ -234,7 +234,7 @@ pub fn correct_again_from(
     let start_final = previous
         .and_then(|p| start_from(&graph, p, &p.solution))
         .unwrap_or_else(|| graph.poses.clone());
-    let (active, solution) = settle(&graph, &start_final, &pieces, start_active.clone(), config)?;
+    let (active, solution) = settle(&graph, &start_final, &pieces, start_active, config)?;
     // The measured drift checked by the loops themselves
     // (CorrectConfig::check_drift).
     let check = held_out::Check {
@@ -245,9 +245,12 @@ pub fn correct_again_from(
         levelled: &levelled,
         max_iterations: config.max_iterations,
     };
+    // Another odometry may turn more loops away but not take back those the
+    // measured one turned away: a looser gate lets in a wrong loop that a
+    // looser odometry bends to.
     let checked = match config.check_drift {
         true => check.checked(&graph, k, at, |g| {
-            settle(g, &solution, &pieces, start_active.clone(), config)
+            settle(g, &solution, &pieces, active.clone(), config)
         })?,
         false => None,
     };
