@@ -101,14 +101,10 @@ fn drift_the_loops_agree_on_is_corrected_past_what_their_misses_measure() {
             return;
         };
         let truth = gt.positions();
-        let ape_with = |check_drift| {
-            let config = CorrectConfig {
-                check_drift,
-                ..CorrectConfig::default()
-            };
-            let corrected = correct(&est, &config).expect("corrects");
-            let after: Vec<_> = corrected.poses.iter().map(|p| p.position).collect();
-            ape(&after, &truth, Alignment::Se3).unwrap().rmse
+        let ape_with = |check| {
+            ape(&corrected_positions(&est, check), &truth, Alignment::Se3)
+                .unwrap()
+                .rmse
         };
         let (unchecked, checked) = (ape_with(false), ape_with(true));
         assert!(
@@ -137,14 +133,9 @@ fn misses_the_loops_do_not_agree_on_leave_the_path_stiff() {
     let Some((est, truth)) = common::euroc_vio("mono VIO", "V2_01") else {
         return;
     };
-    let corrected = correct(&est, &CorrectConfig::default()).expect("corrects");
     let before = common::ape_where_known(&est.positions(), &truth);
-    let after: Vec<_> = corrected.poses.iter().map(|p| p.position).collect();
-    let after = common::ape_where_known(&after, &truth);
-    assert!(
-        after <= 1.05 * before,
-        "V2_01: APE {before:.3} -> {after:.3}"
-    );
+    let after = common::ape_where_known(&corrected_positions(&est, true), &truth);
+    assert!(after <= 1.05 * before, "V2_01: {before:.3} -> {after:.3} m");
 }
 
 /// Regression: where the drift check took a looser odometry, its final
@@ -167,17 +158,11 @@ fn a_looser_odometry_does_not_take_back_a_loop_the_measured_one_turned_away() {
         p.position.z = -s * x + c * z;
         p.orientation = None;
     }
-    let median_error = |check_drift| {
-        let config = CorrectConfig {
-            check_drift,
-            ..CorrectConfig::default()
-        };
-        let corrected = correct(&drifted, &config).expect("corrects");
-        let mut d: Vec<f64> = corrected
-            .poses
+    let median_error = |check| {
+        let mut d: Vec<f64> = corrected_positions(&drifted, check)
             .iter()
             .zip(&gt.poses)
-            .map(|(a, b)| (a.position - b.position).norm())
+            .map(|(a, b)| (a - b.position).norm())
             .collect();
         d.sort_by(f64::total_cmp);
         d[d.len() / 2]
@@ -256,6 +241,17 @@ fn ape_after(est: &Trajectory, truth: &[Vector3<f64>]) -> (f64, f64, usize) {
         ape(&after, truth, Alignment::Se3).unwrap().rmse,
         corrected.kept(),
     )
+}
+
+/// The positions of `est` corrected with the default configuration, the
+/// drift check (`CorrectConfig::check_drift`) on or off.
+fn corrected_positions(est: &Trajectory, check_drift: bool) -> Vec<Vector3<f64>> {
+    let config = CorrectConfig {
+        check_drift,
+        ..CorrectConfig::default()
+    };
+    let corrected = correct(est, &config).expect("corrects");
+    corrected.poses.iter().map(|p| p.position).collect()
 }
 
 /// Regression: loops on ground truth, whose misses are only a lane's
