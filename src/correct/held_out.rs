@@ -9,10 +9,12 @@
 //! measured drift bent the path to fit them.
 
 use super::graph::PoseGraph;
+use super::loops::misfit;
 use super::{carry, pieces_of, solve, LoopClosure};
 use crate::geometry::Similarity3;
 use crate::trajectory::{Pose, Trajectory};
 use crate::Result;
+use nalgebra::Vector3;
 
 /// The factor on the measured odometry noise the check tries either way:
 /// half a decade, the measured factor's own uncertainty from a handful of
@@ -111,18 +113,16 @@ impl Check<'_> {
     }
 }
 
-/// RMS distance from the query poses of `l` to the nearest of its match
-/// poses, in `poses`.
+/// How far apart `poses` put the two passes of `l`: the RMS distance from
+/// its query poses to the nearest of its match poses ([`misfit`], with no
+/// motion between them).
 fn apart(poses: &[Pose], l: &LoopClosure) -> f64 {
-    let matched = &poses[l.match_range[0]..=l.match_range[1]];
-    let (mut sum, mut n) = (0.0, 0.0f64);
-    for q in &poses[l.query_range[0]..=l.query_range[1]] {
-        let d = matched
-            .iter()
-            .map(|m| (m.position - q.position).norm_squared())
-            .fold(f64::INFINITY, f64::min);
-        sum += d;
-        n += 1.0;
-    }
-    (sum / n.max(1.0)).sqrt()
+    let at = |[first, last]: [usize; 2]| -> Vec<Vector3<f64>> {
+        poses[first..=last].iter().map(|p| p.position).collect()
+    };
+    misfit(
+        &at(l.query_range),
+        &at(l.match_range),
+        &Similarity3::identity(),
+    )
 }
