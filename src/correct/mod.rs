@@ -48,6 +48,7 @@ pub mod solve;
 
 mod drift;
 mod held_out;
+mod sim3_between;
 
 pub use config::{CorrectConfig, Group, LoopNoise, OdometryNoise};
 pub use graph::PoseGraph;

@@ -6,6 +6,7 @@
 
 use super::config::Group;
 use super::graph::{Edge, PoseGraph};
+use super::sim3_between::Sim3Between;
 use crate::geometry::{nearest_rotation, Similarity3};
 use crate::{Error, Result};
 use apex_solver::core::problem::Problem;
@@ -87,7 +88,7 @@ fn factor(e: &Edge, group: Group) -> Result<(Factor, NoiseModel)> {
     let m = &e.from_T_to;
     let sim3 = group == Group::Sim3;
     let factor: Factor = if sim3 {
-        Box::new(BetweenFactor::new(sim(m)))
+        Box::new(Sim3Between::new(sim(m)))
     } else {
         Box::new(BetweenFactor::new(se3(m)))
     };
