@@ -1,6 +1,7 @@
 //! Drift-correction speed: `correct` on KITTI 00's drifting MULLS estimate
 //! end to end (loop search included) and the graph solve alone, `correct`
-//! on KITTI 09's truth (a Sim(3) graph of look-alikes, all turned away), the
+//! on KITTI 09's truth (a Sim(3) graph of look-alikes, all turned away) and
+//! on KITTI 08's monocular estimate (a Sim(3) graph keeping a loop), the
 //! online detector's re-optimisation after one new loop on a 10 000-pose
 //! drive whose earlier loops were tried before, from the correction before
 //! it (`correct_again_from`), each also with 2000 even nodes (the graph's
@@ -24,9 +25,13 @@ use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint::{find_loops, Pose, Trajectory};
 
 fn kitti(file: &str) -> Option<Trajectory> {
+    read(file, Format::Kitti)
+}
+
+fn read(file: &str, format: Format) -> Option<Trajectory> {
     let dir = std::env::var("TURNPRINT_DATA").unwrap_or_else(|_| "../shared/data".into());
     let p = PathBuf::from(dir).join(file);
-    match read_trajectory(&p, Format::Kitti) {
+    match read_trajectory(&p, format) {
         Ok(t) => Some(t),
         Err(_) => {
             eprintln!("skipped: {} is absent (set TURNPRINT_DATA)", p.display());
@@ -50,6 +55,13 @@ fn bench_batch(c: &mut Criterion) {
         c.bench_function(
             "correct KITTI 09 truth (1591 poses, every loop wrong)",
             |b| b.iter(|| correct(black_box(&truth), &config).unwrap()),
+        );
+    }
+    // A Sim(3) graph that keeps a loop: monocular scale drift.
+    if let Some(mono) = read("kitti_orbslam2_vio/08_orbslam2_tum.txt", Format::Tum) {
+        c.bench_function(
+            "correct monocular ORB-SLAM2 08 (4069 poses, Sim(3), end to end)",
+            |b| b.iter(|| correct(black_box(&mono), &config).unwrap()),
         );
     }
     let Some(est) = kitti("odometry/kitti_mulls_dso/mulls_no_loop/00.txt") else {
