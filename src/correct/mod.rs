@@ -181,7 +181,13 @@ pub fn correct_again_from(
     // made again without it: a wrong loop chosen early may have turned true
     // ones away. The loops chosen and not banned enter together, and those
     // turned away are tried again. Each round bans a loop, so this ends.
-    let mut banned = vec![false; loops.len()];
+    // A look-alike, whose similarity lays the passes farther apart than
+    // they lie (LoopClosure::looks_alike), is turned away before the choice.
+    let positions = path.positions();
+    let mut banned: Vec<bool> = loops
+        .iter()
+        .map(|l| in_path(l, positions.len()) && l.looks_alike(&positions))
+        .collect();
     let mut remaining: Option<Vec<bool>> = None;
     let (k, chosen, chosen_solution) = loop {
         let (chosen, solution) = match &remaining {
@@ -207,7 +213,6 @@ pub fn correct_again_from(
     };
     // The final solve takes the chosen loops in pieces
     // (LoopClosure::pieces), levelled (LoopClosure::levelled).
-    let positions = path.positions();
     let (mut pieces, mut owner, mut levelled) = (Vec::new(), Vec::new(), Vec::new());
     for (id, l) in loops.iter().enumerate() {
         let whole = l.levelled(&positions);
@@ -310,6 +315,11 @@ fn start_from(
             })
             .collect(),
     )
+}
+
+/// Whether both ranges of `l` lie within a path of `n` poses.
+fn in_path(l: &LoopClosure, n: usize) -> bool {
+    l.query_range[1] < n && l.match_range[1] < n
 }
 
 /// With [`CorrectConfig::rigid_loops`], the loops as rigid motions

@@ -18,8 +18,10 @@
 //! set the graph's even keyframes and the loops taken from the search,
 //! `RIGID=1` takes the loops as rigid motions (`CorrectConfig::rigid_loops`),
 //! `GROUP=se3` or `GROUP=sim3` sets the node group instead of `auto`.
-//! Wheeled robots' dead reckoning with measured relations (CARMEN ACES) is
-//! a second table: relation errors before and after, batch and streamed.
+//! Drones' and hand-held cameras' motion-capture truths are a second table
+//! (do no harm: how far the correction moves them), wheeled robots' dead
+//! reckoning with measured relations (CARMEN ACES) a third: relation errors
+//! before and after, batch and streamed.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -472,8 +474,50 @@ fn main() {
             seconds
         );
     }
+    if !online && std::env::var("ORACLE").is_err() && "motion capture".contains(&filter) {
+        motion_capture(&dir);
+    }
     if !online && std::env::var("ORACLE").is_err() && "wheel odometry".contains(&filter) {
         relations(&dir);
+    }
+}
+
+/// Do no harm off the road: every drone and hand-held camera's
+/// motion-capture truth in the data (`kinds::catalog`, sessions over 6000
+/// poses thinned evenly, positions only) corrected, and how far the
+/// correction moves it (APE against itself, SE(3) Umeyama) in metres and
+/// as a share of its extent.
+fn motion_capture(dir: &Path) {
+    use turnprint_eval::kinds::{catalog::catalog, Kind};
+    println!();
+    println!("| motion-capture truth | poses | extent, m | moved, m RMS | moved / extent | loops kept / rejected |");
+    println!("|---|--:|--:|--:|--:|--:|");
+    let sessions = catalog(dir).sessions;
+    let truths = sessions
+        .iter()
+        .filter(|s| matches!(s.kind, Kind::Drone | Kind::Handheld) && s.input == s.truth);
+    for s in truths {
+        let path = Trajectory::from_positions(s.name.clone(), &s.truth);
+        let extent = s
+            .truth
+            .iter()
+            .map(|p| (p - s.truth[0]).norm())
+            .fold(0.0, f64::max);
+        match correct(&path, &config()) {
+            Ok(c) => {
+                let after: Vec<_> = c.poses.iter().map(|p| p.position).collect();
+                let moved = ape(&after, &s.truth, Alignment::Se3).map_or(f64::NAN, |a| a.rmse);
+                let kept = c.kept();
+                println!(
+                    "| {} | {} | {extent:.1} | {moved:.3} | {:.1} % | {kept} / {} |",
+                    s.name,
+                    path.len(),
+                    100.0 * moved / extent,
+                    c.loops.len() - kept
+                );
+            }
+            Err(e) => println!("| {} | {} | failed: {e} |", s.name, path.len()),
+        }
     }
 }
 
