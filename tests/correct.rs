@@ -26,6 +26,15 @@ fn mulls_without_loop_closure(seq: &str) -> Option<(Trajectory, Vec<Vector3<f64>
     Some((est, gt.positions()))
 }
 
+/// The loop search's loops of `path`, as `correct` finds them.
+fn found_loops(path: &Trajectory, config: &CorrectConfig) -> Vec<LoopClosure> {
+    turnprint::find_loops(path, &config.loops)
+        .unwrap()
+        .iter()
+        .map(|h| LoopClosure::from_hypothesis(path, h).unwrap())
+        .collect()
+}
+
 fn true_offset(l: &LoopClosure, truth: &[Vector3<f64>]) -> f64 {
     turnprint_eval::revisits::true_offset(l.query_range, l.match_range, truth)
 }
@@ -183,11 +192,7 @@ fn a_correction_started_from_the_one_before_reaches_the_same_path() {
         return;
     };
     let config = CorrectConfig::default();
-    let loops: Vec<LoopClosure> = turnprint::find_loops(&est, &config.loops)
-        .expect("loops")
-        .iter()
-        .map(|h| LoopClosure::from_hypothesis(&est, h).expect("a loop"))
-        .collect();
+    let loops = found_loops(&est, &config);
     let n = loops.len();
     assert!(n >= 2, "{n} loops");
     let before = correct_with_loops(&est, &loops[..n - 1], &config).expect("corrects");
@@ -301,11 +306,7 @@ fn wrong_loops_from_a_file_are_rejected_and_do_no_harm() {
     };
     let truth = gt.positions();
     let config = CorrectConfig::default();
-    let found: Vec<LoopClosure> = turnprint::find_loops(&est, &config.loops)
-        .unwrap()
-        .iter()
-        .map(|h| LoopClosure::from_hypothesis(&est, h).unwrap())
-        .collect();
+    let found = found_loops(&est, &config);
     let clean = correct_with_loops(&est, &found, &config).unwrap();
     let mut loops = found.clone();
     for (q, m) in [
@@ -563,11 +564,7 @@ fn look_alikes_that_lay_their_passes_apart_are_turned_away() {
     let truth_path = read_trajectory(&file, Format::Tum).expect("readable");
     let truth = truth_path.positions();
     let config = CorrectConfig::default();
-    let found: Vec<LoopClosure> = turnprint::find_loops(&truth_path, &config.loops)
-        .unwrap()
-        .iter()
-        .map(|h| LoopClosure::from_hypothesis(&truth_path, h).unwrap())
-        .collect();
+    let found = found_loops(&truth_path, &config);
     let alike: Vec<bool> = found.iter().map(|l| l.looks_alike(&truth)).collect();
     assert!(
         alike.iter().any(|a| *a),
