@@ -535,6 +535,34 @@ pub(super) mod tests {
         )
     }
 
+    /// A loop's similarity that lays its passes far apart (a look-alike
+    /// blown up about the path's start) is one; the one that lays the
+    /// second pass of a corner onto the first is not, nor is the identity
+    /// where the passes already coincide.
+    #[test]
+    fn a_similarity_laying_the_passes_apart_looks_alike() {
+        let corner = walk(&[[0.0, -100.0], [0.0, 0.0], [100.0, 0.0]]);
+        let shifted: Vec<Vector3<f64>> = corner
+            .iter()
+            .map(|p| p + Vector3::new(3.0, 2.0, 0.0))
+            .collect();
+        let (path, q, m) = two_passes(&corner, &shifted);
+        let positions = path.positions();
+        let loop_at = |scale: f64, translation: Vector3<f64>| {
+            let sim = Similarity3 {
+                scale,
+                rotation: Matrix3::identity(),
+                translation,
+            };
+            LoopClosure::new(&path, q, m, Some(sim), 1.0, false).unwrap()
+        };
+        let right = loop_at(1.0, Vector3::new(3.0, 2.0, 0.0));
+        assert!(right.rmse < 1e-9, "{}", right.rmse);
+        assert!(!right.looks_alike(&positions));
+        assert!(!loop_at(1.0, Vector3::zeros()).looks_alike(&positions));
+        assert!(loop_at(60.0, Vector3::zeros()).looks_alike(&positions));
+    }
+
     /// Regression: the loops of a drone's VIO (EuRoC MH_04), short arcs and
     /// single corners, fitted at scales 0.67-1.26, made `auto` take Sim(3)
     /// for a metric path, whose correction then went wrong. One corner
