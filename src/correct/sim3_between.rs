@@ -16,7 +16,7 @@
 //! solve). Its integrand is built from `sin`, `cos` and `exp` of `t θ` and
 //! `t σ` times polynomials of degree two in `t`, and eight Gauss-Legendre
 //! nodes (exact to degree 15) integrate it to 1e-9 of apex's own for
-//! rotations up to π and scales from e⁻¹ to e
+//! rotations up to 3.1 rad and scales from e⁻¹ to e
 //! (`matches_apex_right_jacobian`). The residual is apex's, so the optimum
 //! is the same; only the steps towards it use the quadrature.
 
