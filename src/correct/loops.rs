@@ -55,15 +55,6 @@ pub struct LoopClosure {
 /// either.
 pub const SCALE_SHOWN: f64 = 2.0;
 
-/// How many times as badly as the path has them a loop's similarity must
-/// misfit its passes to be a look-alike ([`LoopClosure::looks_alike`]).
-/// Twice, as for [`SCALE_SHOWN`]: a misfit that doubles is no rounding of
-/// a fit. Between once and twice the similarity fits the passes about as
-/// well as none, which true revisits of a path that does not drift there
-/// do (KAIST-VIO square_head's truth: 0.66-0.96); they stay, and tell the
-/// drift measurement so (turned away, that truth moved by 0.34 m RMS).
-pub const LOOK_ALIKE: f64 = 2.0;
-
 impl LoopClosure {
     /// A loop of `path` from its ranges and, if known, its similarity
     /// (otherwise fitted to the two ranges paired along their arc length,
@@ -170,24 +161,6 @@ impl LoopClosure {
         );
         out.levelled = true;
         out
-    }
-
-    /// Whether the loop's similarity misfits its passes ([`misfit`]) at
-    /// least [`LOOK_ALIKE`] times as badly as the path has them, with no
-    /// motion between them: a loop claims that the path drifted between
-    /// its passes and that its similarity undoes the drift, and one that
-    /// lays them decidedly farther apart than they lie undoes none. The
-    /// search returns such look-alikes below score 0.002 (on a drone's
-    /// motion-capture truth, UZH-FPV indoor forward 9, at scales 58-176),
-    /// and the graph's gate, loose by their large misfit, kept them.
-    /// `positions` are the path's the loop is of.
-    pub fn looks_alike(&self, positions: &[Vector3<f64>]) -> bool {
-        let (query, matched) = (
-            &positions[self.query_range[0]..=self.query_range[1]],
-            &positions[self.match_range[0]..=self.match_range[1]],
-        );
-        misfit(query, matched, &self.query_T_match)
-            >= LOOK_ALIKE * misfit(query, matched, &Similarity3::identity())
     }
 
     /// The loop as a rigid motion, for a graph whose scale does not
@@ -533,34 +506,6 @@ pub(super) mod tests {
             [q0, q0 + second.len() - 1],
             m,
         )
-    }
-
-    /// A loop's similarity that lays its passes far apart (a look-alike
-    /// blown up about the path's start) is one; the one that lays the
-    /// second pass of a corner onto the first is not, nor is the identity
-    /// where the passes already coincide.
-    #[test]
-    fn a_similarity_laying_the_passes_apart_looks_alike() {
-        let corner = walk(&[[0.0, -100.0], [0.0, 0.0], [100.0, 0.0]]);
-        let shifted: Vec<Vector3<f64>> = corner
-            .iter()
-            .map(|p| p + Vector3::new(3.0, 2.0, 0.0))
-            .collect();
-        let (path, q, m) = two_passes(&corner, &shifted);
-        let positions = path.positions();
-        let loop_at = |scale: f64, translation: Vector3<f64>| {
-            let sim = Similarity3 {
-                scale,
-                rotation: Matrix3::identity(),
-                translation,
-            };
-            LoopClosure::new(&path, q, m, Some(sim), 1.0, false).unwrap()
-        };
-        let right = loop_at(1.0, Vector3::new(3.0, 2.0, 0.0));
-        assert!(right.rmse < 1e-9, "{}", right.rmse);
-        assert!(!right.looks_alike(&positions));
-        assert!(!loop_at(1.0, Vector3::zeros()).looks_alike(&positions));
-        assert!(loop_at(60.0, Vector3::zeros()).looks_alike(&positions));
     }
 
     /// Regression: the loops of a drone's VIO (EuRoC MH_04), short arcs and

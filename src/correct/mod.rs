@@ -3,6 +3,8 @@
 //!
 //! ```text
 //! path -> loop search (pipeline::find_loops, as `loops`) -> LoopClosure
+//!      (look-alikes, whose similarity lays the passes apart, turned away:
+//!      look_alike)
 //!      (-> a rigid motion each, with `rigid_loops`: LoopClosure::rigid)
 //!      -> PoseGraph (keyframes, odometry edges, loop edges free along the road)
 //!      -> choice (apex-solver, least squares, rise of the cost, best loop first)
@@ -48,6 +50,7 @@ pub mod solve;
 
 mod drift;
 mod held_out;
+mod look_alike;
 mod sim3_between;
 
 pub use config::{CorrectConfig, Group, LoopNoise, OdometryNoise};
