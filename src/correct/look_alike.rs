@@ -17,8 +17,8 @@ use nalgebra::Vector3;
 pub const LOOK_ALIKE: f64 = 2.0;
 
 impl LoopClosure {
-    /// Whether the loop's similarity misfits its passes (the RMS distance
-    /// from its query poses to the nearest moved match pose) at least
+    /// Whether the loop's similarity misfits its passes (`rmse`, the RMS
+    /// distance from its query poses to the nearest moved match pose) at least
     /// `LOOK_ALIKE` (2) times as badly as the path has them, with no
     /// motion between them: a loop claims that the path drifted between
     /// its passes and that its similarity undoes the drift, and one that
@@ -32,8 +32,7 @@ impl LoopClosure {
             &positions[self.query_range[0]..=self.query_range[1]],
             &positions[self.match_range[0]..=self.match_range[1]],
         );
-        misfit(query, matched, &self.query_T_match)
-            >= LOOK_ALIKE * misfit(query, matched, &Similarity3::identity())
+        self.rmse >= LOOK_ALIKE * misfit(query, matched, &Similarity3::identity())
     }
 }
 
