@@ -9,10 +9,9 @@
 //! measured drift bent the path to fit them.
 
 use super::graph::PoseGraph;
-use super::loops::misfit;
 use super::{carry, pieces_of, solve, LoopClosure};
 use crate::geometry::Similarity3;
-use crate::trajectory::{Pose, Trajectory};
+use crate::trajectory::Trajectory;
 use crate::Result;
 use nalgebra::Vector3;
 
@@ -90,7 +89,7 @@ impl Check<'_> {
     }
 
     /// The sum over the loops `ids`, each left out of `graph` in turn, of
-    /// how far apart the others put its passes ([`apart`]).
+    /// how far apart the others put its passes ([`LoopClosure::apart`]).
     fn apart_sum(&self, graph: &PoseGraph, ids: &[usize]) -> Result<f64> {
         // Every left-out solve is independent: spread over the cores. Each
         // costs its set-up more than its iterations, so a lower cap than
@@ -101,7 +100,13 @@ impl Check<'_> {
                 without[p] = false;
             }
             let solved = solve::optimise(graph, self.solution, &without, self.max_iterations);
-            Some(solved.map(|s| apart(&carry(self.path, graph, &s), &self.levelled[id])))
+            Some(solved.map(|s| {
+                let carried: Vec<Vector3<f64>> = carry(self.path, graph, &s)
+                    .iter()
+                    .map(|p| p.position)
+                    .collect();
+                self.levelled[id].apart(&carried)
+            }))
         });
         distances.into_iter().sum()
     }
@@ -111,18 +116,4 @@ impl Check<'_> {
     fn closer(&self, graph: &PoseGraph, ids: &[usize], measured: f64) -> Result<bool> {
         Ok(self.apart_sum(graph, ids)? < SHOWN * measured)
     }
-}
-
-/// How far apart `poses` put the two passes of `l`: the RMS distance from
-/// its query poses to the nearest of its match poses ([`misfit`], with no
-/// motion between them).
-fn apart(poses: &[Pose], l: &LoopClosure) -> f64 {
-    let at = |[first, last]: [usize; 2]| -> Vec<Vector3<f64>> {
-        poses[first..=last].iter().map(|p| p.position).collect()
-    };
-    misfit(
-        &at(l.query_range),
-        &at(l.match_range),
-        &Similarity3::identity(),
-    )
 }

@@ -3,8 +3,7 @@
 //! whose similarity lays the passes decidedly farther apart than the path
 //! has them undoes none ([`LoopClosure::looks_alike`]).
 
-use super::loops::{misfit, LoopClosure};
-use crate::geometry::Similarity3;
+use super::loops::LoopClosure;
 use nalgebra::Vector3;
 
 /// How many times as badly as the path has them a loop's similarity must
@@ -28,11 +27,7 @@ impl LoopClosure {
     /// and the graph's gate, loose by their large misfit, kept them.
     /// `positions` are the path's the loop is of.
     pub fn looks_alike(&self, positions: &[Vector3<f64>]) -> bool {
-        let (query, matched) = (
-            &positions[self.query_range[0]..=self.query_range[1]],
-            &positions[self.match_range[0]..=self.match_range[1]],
-        );
-        self.rmse >= LOOK_ALIKE * misfit(query, matched, &Similarity3::identity())
+        self.rmse >= LOOK_ALIKE * self.apart(positions)
     }
 }
 
@@ -40,6 +35,7 @@ impl LoopClosure {
 mod tests {
     use super::super::loops::tests::{two_passes, walk};
     use super::*;
+    use crate::geometry::Similarity3;
     use nalgebra::Matrix3;
 
     /// A loop's similarity that lays its passes far apart (a look-alike

@@ -163,6 +163,17 @@ impl LoopClosure {
         out
     }
 
+    /// How far apart `positions` put the loop's two passes: the RMS
+    /// distance from its query poses (at most 64, evenly spread) to the
+    /// nearest of its match poses, as `rmse` with no motion between them.
+    pub fn apart(&self, positions: &[Vector3<f64>]) -> f64 {
+        misfit(
+            &positions[self.query_range[0]..=self.query_range[1]],
+            &positions[self.match_range[0]..=self.match_range[1]],
+            &Similarity3::identity(),
+        )
+    }
+
     /// The loop as a rigid motion, for a graph whose scale does not
     /// drift: the search's similarity with its scale set to 1 about the
     /// match range's centroid, or that motion refined on the poses
