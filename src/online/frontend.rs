@@ -6,7 +6,9 @@
 //! from a warm-up prefix: the plane, the stationary threshold, the typical
 //! step (grid step = half of it) and the smoothing bandwidth (GCV on the
 //! prefix, among the same multiples of the typical step). The warm-up poses
-//! are then replayed through the streams, so nothing is lost.
+//! are then replayed through the streams, so nothing is lost. A path that
+//! later moves many times faster than at its warm-up has them scaled with
+//! its speed (`Streams::follow_speed`).
 
 use nalgebra::{Vector2, Vector3};
 
@@ -100,7 +102,34 @@ pub struct Streams {
     sig: SignatureStream,
     bounds: BoundaryStream,
     jumps: JumpFilter,
+    /// The last position pushed (before the jump filter).
+    raw_last: Option<Vector2<f64>>,
+    /// Running median of the length of the moving steps (see
+    /// [`Streams::follow_speed`]).
+    median_step: f64,
 }
+
+/// The track's parameters are scaled with the path's speed once its moving
+/// step has grown this many times past the one they were chosen for. A
+/// drone that sits on the ground creeping a few hundredths of a millimetre
+/// per pose through the warm-up flies at 200 times that: with the warm-up's
+/// step every flying step was a jump (92-96 % of UZH-FPV's poses) and the
+/// grid hundreds of times finer than the poses. 8 stays a third of the jump
+/// limit (`jump_factor`, 25 typical steps), so the running median catches
+/// up before the steps are taken for jumps, and above the 4-8 times by
+/// which walkers, hand-held cameras and drones that take off by hand speed
+/// up after their warm-up, for which the warm-up's choice holds (EuRoC and
+/// TUM-VI covered fewer revisit events when scaled at 4). Only upwards: a
+/// path that slows down is sampled as the batch path samples one whose
+/// median step is its fast parts'.
+const SPEED_CHANGE: f64 = 8.0;
+
+/// The factor by which each moving step moves the running median of the
+/// step length toward its own ([`Streams::follow_speed`]), e^0.02: a
+/// sustained speed change of `SPEED_CHANGE` is followed within ln 8 / 0.02
+/// = 104 steps, while the median of steadily mixed steps (back steps, stop
+/// and go) stays within a few per cent.
+const SPEED_RATE: f64 = 1.020_201_340_026_755_8;
 
 impl Streams {
     /// Streams with these parameters.
@@ -114,7 +143,44 @@ impl Streams {
             sig: SignatureStream::new(&pc.signature),
             bounds: BoundaryStream::new(&pc.segments, pc.signature.dk),
             jumps: JumpFilter::new(params.typical_step, config.jump_factor),
+            raw_last: None,
+            median_step: params.typical_step,
         }
+    }
+
+    /// Follows the length of the moving steps (a running median in log
+    /// length, steps below the stationary threshold left out) and scales
+    /// the typical step, grid step, smoothing bandwidth and stationary
+    /// threshold together once it has grown `SPEED_CHANGE` times: the same
+    /// parameters the warm-up chose, at the speed the path now has. The
+    /// steps are measured before the jump filter, which re-anchors the
+    /// steps it takes for jumps to one typical step each.
+    fn follow_speed(&mut self, xy: Vector2<f64>) {
+        let last = self.raw_last.replace(xy);
+        // Squared lengths: no square root nor logarithm on the caller's thread.
+        let Some(d2) = last.map(|l| (xy - l).norm_squared()) else {
+            return;
+        };
+        if d2 < self.chord.min_step * self.chord.min_step {
+            return;
+        }
+        if d2 > self.median_step * self.median_step {
+            self.median_step *= SPEED_RATE;
+        } else {
+            self.median_step /= SPEED_RATE;
+        }
+        let k = self.median_step / self.params.typical_step;
+        if k < SPEED_CHANGE {
+            return;
+        }
+        let p = &mut self.params;
+        p.typical_step *= k;
+        p.min_step *= k;
+        p.smoother.bandwidth *= k;
+        p.grid_step = crate::track::grid_step(p.typical_step, p.smoother.bandwidth);
+        self.chord.min_step = p.min_step;
+        self.grid.retune(p.smoother, p.grid_step);
+        self.jumps.retune(p.typical_step);
     }
 
     /// Feeds pose `index` (3D position, already checked finite).
@@ -126,6 +192,7 @@ impl Streams {
         out: &mut Outbox,
     ) {
         let xy = self.params.plane.to_2d(p);
+        self.follow_speed(xy);
         match self.jumps.push(index, xy, counts) {
             Passed::None => {}
             Passed::One((i, q)) => self.feed(i, q, out),

@@ -6,7 +6,8 @@
 //! - a timestamp older than the last accepted one: dropped (out of order);
 //! - a timestamp equal to the last accepted one: dropped (duplicate);
 //! - a single pose far away from both its neighbours (a GPS glitch: the step
-//!   in and the step out both longer than `jump_factor` typical steps): the
+//!   in and the step out both longer than `jump_factor` typical steps, the
+//!   typical step following the path's speed upwards): the
 //!   pose is dropped (counted as an outlier); this holds one pose back;
 //! - a lasting jump (VO failure, re-initialisation: the path continues from
 //!   the new place): the detector's frame is re-anchored so that the path
@@ -99,6 +100,7 @@ pub enum Passed {
 /// One-pose-lookahead jump filter on 2D positions.
 #[derive(Debug, Clone)]
 pub struct JumpFilter {
+    factor: f64,
     limit: f64,
     typical: f64,
     offset: Vector2<f64>,
@@ -111,6 +113,7 @@ impl JumpFilter {
     /// Jumps are steps longer than `factor * typical`.
     pub fn new(typical: f64, factor: f64) -> Self {
         JumpFilter {
+            factor,
             limit: factor * typical,
             typical,
             offset: Vector2::zeros(),
@@ -118,6 +121,13 @@ impl JumpFilter {
             direction: Vector2::new(1.0, 0.0),
             suspect: None,
         }
+    }
+
+    /// Takes `typical` as the typical step from now on (the path changed
+    /// speed).
+    pub fn retune(&mut self, typical: f64) {
+        self.typical = typical;
+        self.limit = self.factor * typical;
     }
 
     /// Feeds pose `index` at raw position `p`.

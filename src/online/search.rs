@@ -183,9 +183,14 @@ impl Searcher {
     /// Takes in the history's new samples (spectra, prefix sums, index).
     pub fn update(&mut self, h: &History, frame: &Frame) {
         self.correlator.update(&h.sig_value);
-        let spatial = self
-            .spatial
-            .get_or_insert_with(|| SpatialIndex::new(64.0 * frame.step, 4));
+        // The cell follows the grid step, which grows with the path's speed
+        // (`frontend::Streams`): cells of a step 200 times smaller made the
+        // probes' reach, a number of cells, 200 times shorter.
+        let cell = 64.0 * frame.step;
+        let spatial = match &mut self.spatial {
+            Some(s) if s.cell() == cell => s,
+            other => other.insert(SpatialIndex::new(cell, 4)),
+        };
         spatial.update(&h.now());
     }
 

@@ -43,6 +43,10 @@ pub struct GridStream {
     /// The last kept pose dropped from the window (pose interpolation).
     before: Option<Kept>,
     next: usize,
+    /// Sample `base` lies at `origin`, the later ones `step` apart (both 0
+    /// until [`GridStream::retune`]).
+    base: usize,
+    origin: f64,
 }
 
 impl GridStream {
@@ -54,7 +58,24 @@ impl GridStream {
             window: VecDeque::new(),
             before: None,
             next: 0,
+            base: 0,
+            origin: 0.0,
         }
+    }
+
+    /// Samples from the next one on `step` apart, smoothed by `smoother`
+    /// (the path changed speed; see the online `Streams`). The samples
+    /// already emitted keep their spacing.
+    pub fn retune(&mut self, smoother: Smoother, step: f64) {
+        self.origin = self.u_of(self.next);
+        self.base = self.next;
+        self.smoother = smoother;
+        self.step = step;
+    }
+
+    /// Chord parameter of grid sample `i` (`i >= base`).
+    fn u_of(&self, i: usize) -> f64 {
+        self.origin + (i - self.base) as f64 * self.step
     }
 
     /// Grid step.
@@ -111,7 +132,7 @@ impl GridStream {
         self.window.push_back(kept);
         let reach = self.smoother.reach();
         loop {
-            let ui = self.next as f64 * self.step;
+            let ui = self.u_of(self.next);
             // An infinite `u` would never be reached.
             if u <= ui + reach || !u.is_finite() {
                 break;
@@ -128,7 +149,7 @@ impl GridStream {
             return;
         }
         while self.next < count {
-            let ui = self.next as f64 * self.step;
+            let ui = self.u_of(self.next);
             out(self.eval(ui));
             self.next += 1;
         }
@@ -137,7 +158,10 @@ impl GridStream {
     /// Grid samples a path of total chord length `total` has (the last one
     /// at or just past the end), for [`GridStream::flush`] online.
     pub fn count_for(&self, total: f64) -> usize {
-        (total / self.step).floor() as usize + 1
+        if total < self.origin {
+            return self.next;
+        }
+        self.base + ((total - self.origin) / self.step).floor() as usize + 1
     }
 
     fn eval(&mut self, ui: f64) -> GridPoint {
@@ -316,5 +340,39 @@ impl DiffStream {
             curvature,
             pose: p.pose,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// After a retune the samples go on from where the old spacing would
+    /// have put the next one, at the new spacing, and the count at the end
+    /// of the path is the last sample at or past it.
+    #[test]
+    fn a_retuned_grid_goes_on_at_the_new_step() {
+        let smoother = Smoother { bandwidth: 0.5 };
+        let mut grid = GridStream::new(smoother, 0.25);
+        let mut u = Vec::new();
+        for i in 0..40 {
+            let x = i as f64 * 0.25;
+            grid.push(x, Vector2::new(x, 0.0), i, &mut |g| u.push(g.u));
+        }
+        let before = u.len();
+        let next = before as f64 * 0.25;
+        grid.retune(Smoother { bandwidth: 2.0 }, 1.0);
+        for i in 40..200 {
+            let x = 10.0 + (i - 40) as f64;
+            grid.push(x, Vector2::new(x, 0.0), i, &mut |g| u.push(g.u));
+        }
+        let total = 169.0;
+        let count = grid.count_for(total);
+        grid.flush(count, &mut |g| u.push(g.u));
+        assert_eq!(u[before], next);
+        assert!(u[before..].windows(2).all(|w| w[1] - w[0] == 1.0));
+        let last = *u.last().unwrap();
+        assert!(last >= total - 1.0 && last <= total, "last sample {last}");
+        assert_eq!(u.len(), count);
     }
 }
