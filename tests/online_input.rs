@@ -250,14 +250,7 @@ fn kitti_00_revisit_is_found_while_streaming() {
     let Some(points) = kitti("00") else {
         return;
     };
-    let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
-    let mut found = Vec::new();
-    for p in &points {
-        d.push(&PoseInput::at(*p));
-        found.extend(d.poll());
-    }
-    let (rest, summary) = d.finish();
-    found.extend(rest);
+    let (found, summary) = common::replayed(&points, OnlineConfig::default());
     assert_eq!(summary.worker.candidates as usize, found.len());
     // The long revisit (frames 3266-3854 drive over 0-600 again): a
     // candidate inside it whose parts are within 10 m in ground truth,
@@ -490,14 +483,7 @@ fn a_flight_that_starts_on_the_ground_is_not_taken_for_jumps() {
         return;
     };
     let points = read_trajectory(&path, Format::Auto).unwrap().positions();
-    let mut d = Detector::new(OnlineConfig::default(), Overflow::Block);
-    let mut found = Vec::new();
-    for p in &points {
-        d.push(&PoseInput::at(*p));
-        found.extend(d.poll());
-    }
-    let (rest, summary) = d.finish();
-    found.extend(rest);
+    let (found, summary) = common::replayed(&points, OnlineConfig::default());
     assert!(
         summary.guards.jumps * 100 < summary.poses,
         "{} of {} poses taken for jumps",

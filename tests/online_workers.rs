@@ -7,9 +7,7 @@
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
-use turnprint::online::{
-    CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Source, Summary,
-};
+use turnprint::online::{CandidateEvent, OnlineConfig, Source, Summary};
 use turnprint_eval::drift::DriftModel;
 
 mod common;
@@ -26,15 +24,7 @@ fn replayed(points: &[Vector3<f64>], workers: usize) -> (Vec<CandidateEvent>, Su
         workers,
         ..Default::default()
     };
-    let mut det = Detector::new(config, Overflow::Block);
-    let mut out = Vec::new();
-    for p in points {
-        det.push(&PoseInput::at(*p));
-        out.extend(det.poll());
-    }
-    let (rest, summary) = det.finish();
-    out.extend(rest);
-    (out, summary)
+    common::replayed(points, config)
 }
 
 /// The candidates, every field (`Debug` prints floats exactly).

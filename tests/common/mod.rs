@@ -7,19 +7,26 @@ use std::io::Write;
 use std::process::{Command, Output, Stdio};
 
 use nalgebra::Vector3;
-use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput};
+use turnprint::online::{CandidateEvent, Detector, OnlineConfig, Overflow, PoseInput, Summary};
 
 /// Every candidate the detector emits over `points`, pushed one at a time
 /// (`Overflow::Block`: the same output on any machine).
 pub fn emitted_candidates(points: &[Vector3<f64>], config: OnlineConfig) -> Vec<CandidateEvent> {
+    replayed(points, config).0
+}
+
+/// Every candidate the detector emits over `points`, polled as they come
+/// (`Overflow::Block`), and the summary.
+pub fn replayed(points: &[Vector3<f64>], config: OnlineConfig) -> (Vec<CandidateEvent>, Summary) {
     let mut det = Detector::new(config, Overflow::Block);
     let mut out = Vec::new();
     for p in points {
         det.push(&PoseInput::at(*p));
         out.extend(det.poll());
     }
-    out.extend(det.finish().0);
-    out
+    let (rest, summary) = det.finish();
+    out.extend(rest);
+    (out, summary)
 }
 
 /// The output of `command` run with all of `input` on its stdin (written
