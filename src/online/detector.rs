@@ -293,7 +293,7 @@ impl Detector {
         self.poses += 1;
         self.summary.poses += 1;
         let p = [pose.position.x, pose.position.y, pose.position.z];
-        let result = match self.guard.check(pose.t, &p) {
+        let result = match self.guard.check(pose.t, &p, &mut self.summary.guards) {
             Err(r) => {
                 let g = &mut self.summary.guards;
                 match r {
