@@ -92,7 +92,8 @@ pub struct RobotHistory {
     /// The samples held, as the online search reads them (indices from the
     /// first held item; pose indices and arc lengths are the robot's own).
     pub history: History,
-    /// The robot's frame (from its first chunk).
+    /// The robot's frame (its plane from its first chunk, its grid step and
+    /// bandwidth from its newest).
     pub frame: Option<FrameInfo>,
     /// Poses the robot had pushed at its last chunk.
     pub poses: usize,
@@ -165,7 +166,13 @@ impl RobotHistory {
                 c.sig0
             ));
         }
-        if self.frame.is_some_and(|f| f != c.frame) {
+        // The grid step and bandwidth grow with the robot's speed
+        // (`turnprint::online::frontend`): the newest hold. Its plane and
+        // signature step are fixed for its session.
+        if self
+            .frame
+            .is_some_and(|f| f.plane != c.frame.plane || f.dk != c.frame.dk)
+        {
             return Err("the robot's frame changed within its session".into());
         }
         let held = d.grid + h.xy.len();
@@ -228,7 +235,7 @@ impl RobotHistory {
         h.bounds
             .extend(c.bounds.iter().map(|&b| b as usize - d.sig));
         h.index_new_samples();
-        self.frame.get_or_insert(c.frame);
+        self.frame = Some(c.frame);
         self.poses = self.poses.max(c.poses as usize);
         if self.history.bytes() > self.budget {
             self.trim();

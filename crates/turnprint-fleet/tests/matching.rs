@@ -9,7 +9,7 @@ use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
 use turnprint_fleet::fixture::{curvy_drive, random_similarity, Lcg};
 use turnprint_fleet::history::{Encoder, RobotHistory};
 use turnprint_fleet::payload::{Chunk, FrameInfo};
-use turnprint_fleet::Fleet;
+use turnprint_fleet::{CrossCandidate, Fleet};
 
 /// The chunks of a robot driving `points`, one per hand-over with a new
 /// segment, and the last.
@@ -87,6 +87,23 @@ fn whole_and_tail(
     let a: Vec<_> = drive.iter().map(|p| ta.apply(p)).collect();
     let b: Vec<_> = drive[from..].iter().map(|p| tb.apply(p)).collect();
     (drive, ta, tb, a, b)
+}
+
+/// A's own chunks `ca` and robot B's `cb` handed to `fleet` (robot A) as
+/// a live fleet interleaves them, matched after each; every candidate.
+fn interleaved(fleet: &mut Fleet, ca: &[Chunk], cb: &[Chunk]) -> Vec<CrossCandidate> {
+    let mut found = Vec::new();
+    let n = ca.len().max(cb.len());
+    for i in 0..n {
+        if let Some(c) = ca.get(i) {
+            fleet.own_chunk(c).expect("own chunk");
+        }
+        if let Some(c) = cb.get(i) {
+            fleet.receive("b", &c.encode());
+        }
+        found.extend(fleet.match_new(i + 1 == n));
+    }
+    found
 }
 
 /// How far `fleet` places robot B off its truth (`a_T_b = ta * tb⁻¹`), on
@@ -354,17 +371,7 @@ fn a_confirmation_from_a_robots_earlier_session_is_ignored() {
     let (drive, ta, tb, a, b) = whole_and_tail(1, 11, 1400);
     let (ca, cb) = (chunks(&a, 1), chunks(&b, 2));
     let mut fleet = Fleet::new("a", 1);
-    let mut found = Vec::new();
-    let n = ca.len().max(cb.len());
-    for i in 0..n {
-        if let Some(c) = ca.get(i) {
-            fleet.own_chunk(c).expect("own chunk");
-        }
-        if let Some(c) = cb.get(i) {
-            fleet.receive("b", &c.encode());
-        }
-        found.extend(fleet.match_new(i + 1 == n));
-    }
+    let found = interleaved(&mut fleet, &ca, &cb);
     let right = b_error(&fleet, &drive, &ta, &tb, 1400, 1000.0);
     assert!(right < 0.03, "b misplaced by {right}");
     let confirmed = |fleet: &Fleet| fleet.estimates()["b"].as_ref().map(|e| e.confirmed);
@@ -627,4 +634,32 @@ fn a_late_joiner_catches_up_from_a_bounded_store_over_zenoh() {
     let common = (drive.len() - held_from) as f64;
     let e = b_error(&fleet, &drive, &ta, &tb, held_from, common);
     assert!(e < 0.03, "b misplaced by {e}");
+}
+
+/// A robot that creeps through its warm-up and then drives at twenty times
+/// that step: its detector scales its grid step and bandwidth with the
+/// speed, so its chunks' frames change within the session. The peer
+/// refused every chunk after the change ("the robot's frame changed") and
+/// never placed it.
+#[test]
+fn a_robot_that_speeds_up_after_its_warm_up_is_still_placed() {
+    let (drive, ta, tb, a, b) = whole_and_tail(1, 7, 1000);
+    // B first creeps once round a small circle (steps of a twentieth),
+    // then drives its part.
+    let creep = 0.05;
+    let r = 400.0 * creep / std::f64::consts::TAU;
+    let mut crept: Vec<Vector3<f64>> = (0..400)
+        .map(|i| {
+            let t = i as f64 * creep / r;
+            tb.apply(&(drive[1000] + r * Vector3::new(t.sin(), 1.0 - t.cos(), 0.0)))
+        })
+        .collect();
+    crept.extend(b);
+    let (ca, cb) = (chunks(&a, 1), chunks(&crept, 2));
+    let (first, last) = (cb[0].frame.step, cb[cb.len() - 1].frame.step);
+    assert!(last > 8.0 * first, "B's grid step {first} -> {last}");
+    let mut fleet = Fleet::new("a", 1);
+    interleaved(&mut fleet, &ca, &cb);
+    // B's road shared with A: poses 1000-2400 of the drive.
+    assert!(b_error(&fleet, &drive, &ta, &tb, 1000, 1400.0) < 0.03);
 }
