@@ -149,6 +149,10 @@ typedef struct tp_summary {
     /* Batches of matchings shared out over more than one thread (see
      * tp_options.workers). */
     uint64_t parallel_batches;
+    /* Poses taken although stamped before the last one, whose stamp alone
+     * was ahead (stamped after the one before it too); a stamp before
+     * both is out_of_order. */
+    uint64_t stamps_ahead;
 } tp_summary;
 
 /* The library's default settings. Returns TP_ERROR when out is NULL. */

@@ -112,7 +112,7 @@ pub struct TpSummary {
     pub accepted: u64,
     /// Dropped: NaN or infinite.
     pub non_finite: u64,
-    /// Dropped: timestamp going back.
+    /// Dropped: timestamp before the last two accepted.
     pub out_of_order: u64,
     /// Dropped: repeated timestamp.
     pub duplicate: u64,
@@ -132,6 +132,9 @@ pub struct TpSummary {
     pub workers_lost: u64,
     /// Batches of matchings shared out over more than one thread.
     pub parallel_batches: u64,
+    /// Taken although stamped before the last: that one's stamp alone was
+    /// ahead.
+    pub stamps_ahead: u64,
 }
 
 /// The detector behind a `tp_detector *`: candidates polled from the
@@ -408,5 +411,6 @@ fn summary_of(s: &Summary) -> TpSummary {
         history_bytes: s.worker.history_bytes,
         workers_lost: s.workers_lost,
         parallel_batches: s.worker.parallel_batches,
+        stamps_ahead: s.guards.stamps_ahead,
     }
 }

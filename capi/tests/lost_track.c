@@ -86,7 +86,7 @@ int main(void) {
     CHECK(tp_detector_finish(d, &summary) == TP_ACCEPTED);
     CHECK(summary.poses == 2002);
     CHECK(summary.non_finite == 21);
-    CHECK(summary.out_of_order == 1 && summary.duplicate == 1);
+    CHECK(summary.out_of_order == 1 && summary.duplicate == 1 && summary.stamps_ahead == 0);
     CHECK(summary.accepted == 2002 - 23);
     CHECK(tp_detector_finish(d, &summary) == TP_ERROR);
     CHECK(tp_detector_push(d, &pose) == TP_ERROR);
