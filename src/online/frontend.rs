@@ -112,9 +112,9 @@ pub struct Streams {
 /// The track's parameters are scaled with the path's speed once its moving
 /// step has grown this many times past the one they were chosen for. A
 /// drone that sits on the ground creeping a few hundredths of a millimetre
-/// per pose through the warm-up flies at 200 times that: with the warm-up's
-/// step every flying step was a jump (92-96 % of UZH-FPV's poses) and the
-/// grid hundreds of times finer than the poses. 8 stays a third of the jump
+/// per pose through the warm-up flies at 200 times that: kept at the
+/// warm-up's step, every flying step is a jump (92-96 % of UZH-FPV's poses)
+/// and the grid hundreds of times finer than the poses. 8 stays a third of the jump
 /// limit (`jump_factor`, 25 typical steps), so the running median catches
 /// up before the steps are taken for jumps, and above the 4-8 times by
 /// which walkers, hand-held cameras and drones that take off by hand speed

@@ -80,8 +80,8 @@ impl TimeGuard {
     /// this pose came late: CARMEN's Intel lab log stamps 305 odometry lines
     /// ahead of the next one (median 0.27 s), and their positions follow in
     /// line order (211 of the 212 such lines that move lie between their
-    /// neighbours). Dropping the poses until the clock caught up lost
-    /// 3 007 of its 26 915. The pose is taken (`stamps_ahead`) and the stamp
+    /// neighbours); dropped until the clock catches up, 3 007 of its 26 915
+    /// poses would be lost. The pose is taken (`stamps_ahead`) and the stamp
     /// ahead forgotten.
     pub fn check(
         &mut self,
