@@ -528,14 +528,7 @@ fn a_flight_that_starts_on_the_ground_is_not_taken_for_jumps() {
         summary.guards.jumps,
         summary.poses
     );
-    let (lo, hi) = points.iter().fold(
-        (
-            Vector3::repeat(f64::INFINITY),
-            Vector3::repeat(f64::NEG_INFINITY),
-        ),
-        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-    );
-    let radius = (hi - lo).norm() / 20.0;
+    let radius = turnprint::geometry::extent(&points) / 20.0;
     let right = found
         .iter()
         .filter(|c| {

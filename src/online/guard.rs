@@ -129,7 +129,6 @@ pub enum Passed {
 #[derive(Debug, Clone)]
 pub struct JumpFilter {
     factor: f64,
-    limit: f64,
     typical: f64,
     offset: Vector2<f64>,
     last: Option<Vector2<f64>>,
@@ -142,7 +141,6 @@ impl JumpFilter {
     pub fn new(typical: f64, factor: f64) -> Self {
         JumpFilter {
             factor,
-            limit: factor * typical,
             typical,
             offset: Vector2::zeros(),
             last: None,
@@ -155,7 +153,11 @@ impl JumpFilter {
     /// speed).
     pub fn retune(&mut self, typical: f64) {
         self.typical = typical;
-        self.limit = self.factor * typical;
+    }
+
+    /// Steps longer than this are jumps.
+    fn limit(&self) -> f64 {
+        self.factor * self.typical
     }
 
     /// Feeds pose `index` at raw position `p`.
@@ -166,7 +168,7 @@ impl JumpFilter {
             return Passed::One((index, p));
         };
         if let Some((si, sp)) = self.suspect.take() {
-            if (p - last).norm() <= self.limit {
+            if (p - last).norm() <= self.limit() {
                 // The path came back: the suspect was a glitch.
                 counts.outliers += 1;
                 self.accept(p);
@@ -178,7 +180,7 @@ impl JumpFilter {
             self.offset += shift;
             let (sp, p) = (sp + shift, p + shift);
             self.accept(sp);
-            if (p - sp).norm() > self.limit {
+            if (p - sp).norm() > self.limit() {
                 // The new pose jumps again from the suspect: it is held in
                 // turn. Taken as a step, a jump of a million typical steps
                 // made the track grid emit a million samples.
@@ -188,7 +190,7 @@ impl JumpFilter {
             self.accept(p);
             return Passed::Two([(si, sp), (index, p)]);
         }
-        if (p - last).norm() > self.limit {
+        if (p - last).norm() > self.limit() {
             self.suspect = Some((index, p));
             return Passed::None;
         }

@@ -498,11 +498,7 @@ fn motion_capture(dir: &Path) {
         .filter(|s| matches!(s.kind, Kind::Drone | Kind::Handheld) && s.input == s.truth);
     for s in truths {
         let path = Trajectory::from_positions(s.name.clone(), &s.truth);
-        let extent = s
-            .truth
-            .iter()
-            .map(|p| (p - s.truth[0]).norm())
-            .fold(0.0, f64::max);
+        let extent = turnprint::geometry::extent(&s.truth);
         match correct(&path, &config()) {
             Ok(c) => {
                 let after: Vec<_> = c.poses.iter().map(|p| p.position).collect();
