@@ -5,7 +5,8 @@
 //! online detector's re-optimisation after one new loop on a 10 000-pose
 //! drive whose earlier loops were tried before, from the correction before
 //! it (`correct_again_from`), each also with 2000 even nodes (the graph's
-//! former size) for comparison; and the latency of `push` on the caller's
+//! former size) for comparison; the re-optimisation of a drone that laps a
+//! hall, whose streamed candidates are loops by the dozen; and the latency of `push` on the caller's
 //! thread while the correction's thread solves (printed as a histogram).
 //! Real data from `TURNPRINT_DATA` (default `../shared/data`); those benches
 //! are skipped with a message when it is absent.
@@ -117,6 +118,49 @@ fn bench_online(c: &mut Criterion) {
     for rate in DRIFT_RATES {
         bench_reoptimisation(c, rate);
     }
+    bench_laps(c);
+}
+
+/// The last re-optimisation of UZH-FPV indoor forward 9 (motion capture,
+/// 14 400 poses) streamed with correction: the candidates at the shape cut
+/// of its second half (most of them the same laps found again) arrive
+/// together after a correction with those of its first half, as in a
+/// replay.
+fn bench_laps(c: &mut Criterion) {
+    let file = "multisession/openvins_gt/uzhfpv_indoor/indoor_forward_9_snapdragon_with_gt.txt";
+    let Some(path) = read(file, Format::Tum) else {
+        return;
+    };
+    let online = OnlineConfig::default();
+    let mut detector = Detector::new(online.clone(), Overflow::Block);
+    let mut events = Vec::new();
+    for p in &path.poses {
+        detector.push(&PoseInput::at(p.position));
+        events.extend(detector.poll());
+    }
+    events.extend(detector.finish().0);
+    let loops: Vec<LoopClosure> = events
+        .iter()
+        .filter(|e| e.hypothesis.score >= online.min_score)
+        .filter_map(|e| LoopClosure::from_hypothesis(&path, &e.hypothesis).ok())
+        .collect();
+    let config = CorrectConfig {
+        check_drift: false,
+        ..CorrectConfig::default()
+    };
+    let half = loops.len() / 2;
+    let before = correct_with_loops(&path, &loops[..half], &config).unwrap();
+    let kept: Vec<bool> = before.loops.iter().map(|l| l.kept).collect();
+    let name = format!(
+        "reopt UZH-FPV forward 9, {} new loops, {} of {half} kept",
+        loops.len() - half,
+        kept.iter().filter(|k| **k).count()
+    );
+    c.bench_function(&name, |b| {
+        b.iter(|| {
+            correct_again_from(black_box(&path), &loops, &kept, Some(&before), &config).unwrap()
+        })
+    });
 }
 
 /// The re-optimisation after the newest loop of a drive drifting at `rate`.

@@ -364,8 +364,10 @@ fn as_rigid(
 /// prior's drift and the loops kept so far explain raises the cost by about
 /// its degrees of freedom; a wrong one, or one at odds with the loops kept,
 /// by far more ([`admits`]). Each is solved warm from the solution before
-/// it; loops turned away are tried again once the others have bent the
-/// path (with `retry`, in any case). Loops `banned` are left out. The
+/// it, or taken unsolved where it already fits the path as it is within
+/// the gate (a revisit found again as the path grows: the solve could only
+/// lower the cost it adds there); loops turned away are tried again once
+/// the others have bent the path (with `retry`, in any case). Loops `banned` are left out. The
 /// loops kept before (`kept`) are solved together from `start`. (A robust
 /// loss would not do here: from the uncorrected path a true loop starts
 /// tens of its sigmas off, where DCS gives it no weight.)
@@ -418,8 +420,27 @@ fn admit(
         .collect();
     let mut accepted_since = vec![0usize; loops.len()];
     let mut accepted = 0;
+    // Whether `solution` is the path as it is rather than the optimum of
+    // the loops `active` (loops taken unsolved since the last solve).
+    let mut stale = false;
     let mut try_one =
         |id: usize, active: &mut Vec<bool>, solution: &mut Vec<Similarity3>| -> Result<bool> {
+            // A loop that already fits the path as it is, within the gate,
+            // is taken unsolved: the solve could only lower the cost it
+            // adds there, so its rise is at most its own cost.
+            let own = solve::cost_of(graph, solution, |e| e.loop_id == Some(id));
+            if admits(own, dof, config.reject_above) {
+                active[id] = true;
+                now += own;
+                stale = true;
+                return Ok(true);
+            }
+            // The rise of the next loop is measured from the optimum.
+            if stale {
+                *solution = solve::optimise(graph, solution, active, config.max_iterations)?;
+                now = cost(solution, active);
+                stale = false;
+            }
             // A loop already far beyond the gate at the path as it is
             // turned away unsolved ([`PRIOR_BOUND_MARGIN`]).
             if !admits(
@@ -455,6 +476,9 @@ fn admit(
             try_one(id, &mut active, &mut solution)?;
         }
     }
+    if stale {
+        solution = solve::optimise(graph, &solution, &active, config.max_iterations)?;
+    }
     Ok((active, solution))
 }
 
@@ -487,8 +511,8 @@ fn admits(rise: f64, dof: f64, sigmas: f64) -> bool {
 /// a robust loss would hold back a true loop that starts many of its sigmas
 /// off); the loop that misses by the most sigmas, if above the gate, is
 /// switched off and the graph solved again; a loop cut into pieces is
-/// settled piece by piece. The first solve starts from `start`, the others
-/// from the path as it was.
+/// settled piece by piece. The first solve starts from `start`, each other
+/// from the solve before it (a piece fewer moves the optimum little).
 fn settle(
     graph: &PoseGraph,
     start: &[Similarity3],
@@ -496,19 +520,21 @@ fn settle(
     mut active: Vec<bool>,
     config: &CorrectConfig,
 ) -> Result<(Vec<bool>, Vec<Similarity3>)> {
-    let mut start = start;
+    let mut from = start.to_vec();
     loop {
         if !active.iter().any(|a| *a) {
             return Ok((active, graph.poses.clone()));
         }
-        let solution = solve::optimise(graph, start, &active, config.max_iterations)?;
-        start = &graph.poses;
+        let solution = solve::optimise(graph, &from, &active, config.max_iterations)?;
         let worst = (0..loops.len())
             .filter(|&id| active[id])
             .map(|id| (id, residual(graph, &solution, loops, &[id])))
             .max_by(|a, b| a.1.total_cmp(&b.1));
         match worst {
-            Some((id, r)) if r > config.reject_above => active[id] = false,
+            Some((id, r)) if r > config.reject_above => {
+                active[id] = false;
+                from = solution;
+            }
             _ => return Ok((active, solution)),
         }
     }
