@@ -11,7 +11,9 @@
 //! ```
 //!
 //! Loops that arrive while a solve runs are taken together by the next one,
-//! which starts from the correction before it.
+//! which starts from the correction before it. The last one, at the
+//! stream's end, starts from scratch, so that a stream ends the same
+//! however its re-optimisations fell.
 
 // Frame names as in Sophus: `a_T_b` maps points from b to a.
 #![allow(non_snake_case)]
@@ -21,7 +23,9 @@ use std::time::Instant;
 
 use crossbeam::channel::{unbounded, Receiver, Sender};
 
-use crate::correct::{correct_again_from, CorrectConfig, Corrected, LoopClosure};
+use crate::correct::{
+    correct_again_from, correct_with_loops, CorrectConfig, Corrected, LoopClosure,
+};
 use crate::geometry::Similarity3;
 use crate::trajectory::{Pose, Trajectory};
 use crate::Hypothesis;
@@ -115,8 +119,10 @@ pub struct Snapshot {
 /// The end of a corrected stream.
 #[derive(Debug, Clone)]
 pub struct Finished {
-    /// The path solved once more with every pose and loop; `None` when it
-    /// cannot be corrected (it never moves) or the thread was lost.
+    /// The path solved once more with every pose and loop, from scratch
+    /// (`correct_with_loops`: the same whenever the re-optimisations before
+    /// it ran); `None` when it cannot be corrected (it never moves) or the
+    /// thread was lost.
     pub corrected: Option<Corrected>,
     /// Re-optimisations not yet polled.
     pub events: Vec<Correction>,
@@ -237,6 +243,9 @@ fn run(
         poses: Vec::new(),
     };
     let mut loops: Vec<LoopClosure> = Vec::new();
+    // The hypotheses of `loops`: a loop's levelling is measured on the
+    // path it was made of, and the end makes every loop again of the whole.
+    let mut held: Vec<Hypothesis> = Vec::new();
     let mut fresh = false;
     let mut last: Option<Arc<Snapshot>> = None;
     let mut finish: Option<Sender<Option<Corrected>>> = None;
@@ -261,11 +270,20 @@ fn run(
             // follows its poses), but a bad one is dropped, not obeyed.
             if let Ok(l) = LoopClosure::from_hypothesis(&path, h) {
                 loops.push(l);
+                held.push(h.clone());
                 fresh = true;
             }
         }
         if let Some(tx) = finish.take() {
-            let result = correct_again_from(&path, &loops, &kept, previous.as_ref(), &config).ok();
+            // The end is the correction of every loop from scratch, each
+            // made of the whole path, not from the last re-optimisation,
+            // whose choice depends on which loops had arrived when it ran:
+            // the same stream ends the same.
+            let whole: Vec<LoopClosure> = held
+                .iter()
+                .filter_map(|h| LoopClosure::from_hypothesis(&path, h).ok())
+                .collect();
+            let result = correct_with_loops(&path, &whole, &config).ok();
             let _ = tx.send(result);
             break 'outer;
         }

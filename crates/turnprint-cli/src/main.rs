@@ -144,7 +144,9 @@ enum Command {
     Stream {
         /// Keep a drift-corrected path up to date as loops arrive (a
         /// `corrected` event per re-optimisation) and write it here as TUM
-        /// at the end; with --verify only confirmed loops enter.
+        /// at the end, corrected with every loop from scratch (the same
+        /// however the re-optimisations fell); with --verify only confirmed
+        /// loops enter.
         #[arg(long, value_name = "OUT")]
         correct: Option<PathBuf>,
         /// The path; `-` reads poses from stdin as they arrive (a pipe from
