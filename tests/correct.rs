@@ -204,12 +204,7 @@ fn a_correction_started_from_the_one_before_reaches_the_same_path() {
     };
     assert_eq!(verdicts(&cold), verdicts(&warm));
     let length = turnprint::correct::graph::arc_length(&est.positions())[est.len() - 1];
-    let apart = cold
-        .poses
-        .iter()
-        .zip(&warm.poses)
-        .map(|(a, b)| (a.position - b.position).norm())
-        .fold(0.0, f64::max);
+    let apart = common::farthest_apart(&cold.poses, &warm.poses);
     assert!(apart < 1e-5 * length, "{apart} apart on {length}");
 }
 

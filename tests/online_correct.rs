@@ -228,12 +228,7 @@ fn a_streamed_correction_ends_the_same_however_its_re_optimisations_fell() {
         let kept: Vec<bool> = end.loops.iter().map(|l| l.kept).collect();
         let expected: Vec<bool> = batch.loops.iter().map(|l| l.kept).collect();
         assert_eq!(kept, expected);
-        let moved = end
-            .poses
-            .iter()
-            .zip(&batch.poses)
-            .map(|(a, b)| (a.position - b.position).norm())
-            .fold(0.0, f64::max);
+        let moved = common::farthest_apart(&end.poses, &batch.poses);
         assert!(moved < 1e-6, "the ends differ by {moved} m");
     }
 }

@@ -109,6 +109,14 @@ pub fn euroc_vio(
     None
 }
 
+/// The largest distance between corresponding poses of two paths.
+pub fn farthest_apart(a: &[turnprint::Pose], b: &[turnprint::Pose]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a.position - b.position).norm())
+        .fold(0.0, f64::max)
+}
+
 /// APE (RMSE, SE(3)-aligned) of `positions` against `truth` where it is
 /// known.
 pub fn ape_where_known(positions: &[Vector3<f64>], truth: &[Option<Vector3<f64>>]) -> f64 {
