@@ -6,8 +6,9 @@
 //! drive whose earlier loops were tried before, from the correction before
 //! it (`correct_again_from`), each also with 2000 even nodes (the graph's
 //! former size) for comparison; the re-optimisation of a drone that laps a
-//! hall, whose streamed candidates are loops by the dozen; and the latency of `push` on the caller's
-//! thread while the correction's thread solves (printed as a histogram).
+//! hall, whose streamed candidates are loops by the dozen; and the latency
+//! of `push` on the caller's thread while the correction's thread solves
+//! (printed as a histogram).
 //! Real data from `TURNPRINT_DATA` (default `../shared/data`); those benches
 //! are skipped with a message when it is absent.
 

@@ -3,7 +3,7 @@
 //! odometry prior (a χ² test), so that a loop at odds with the path's
 //! motion or with the loops kept is turned away.
 
-use super::config::{CorrectConfig, Group};
+use super::config::CorrectConfig;
 use super::drift::misses;
 use super::graph::PoseGraph;
 use super::loops::LoopClosure;
@@ -19,10 +19,11 @@ use crate::Result;
 /// it, or taken unsolved where it already fits the path as it is within
 /// the gate (a revisit found again as the path grows: the solve could only
 /// lower the cost it adds there); loops turned away are tried again once
-/// the others have bent the path (with `retry`, in any case). Loops `banned` are left out. The
-/// loops kept before (`kept`) are solved together from `start`. (A robust
-/// loss would not do here: from the uncorrected path a true loop starts
-/// tens of its sigmas off, where DCS gives it no weight.)
+/// the others have bent the path (with `retry`, in any case). Loops
+/// `banned` are left out. The loops kept before (`kept`) are solved
+/// together from `start`. (A robust loss would not do here: from the
+/// uncorrected path a true loop starts tens of its sigmas off, where DCS
+/// gives it no weight.)
 pub(super) fn admit(
     graph: &PoseGraph,
     start: &[Similarity3],
@@ -33,7 +34,7 @@ pub(super) fn admit(
     config: &CorrectConfig,
 ) -> Result<(Vec<bool>, Vec<Similarity3>)> {
     let has_edges = |id: usize| !banned[id] && graph.loop_edges(id).next().is_some();
-    let dof = if graph.group == Group::Sim3 { 7.0 } else { 6.0 };
+    let dof = graph.group.dof() as f64;
     let cost = |solution: &[Similarity3], active: &[bool]| {
         solve::cost_of(graph, solution, |e| {
             e.loop_id
@@ -135,9 +136,9 @@ pub(super) fn admit(
 }
 
 /// How far a loop's Mahalanobis distance from the path under the prior
-/// ([`super::drift::Misses::chi2`] at `k = 1`), halved, may overstate the rise of the
-/// cost its solve brings before the admission trusts it to turn the loop
-/// away unsolved. In a linear graph it never overstates it: the prior's
+/// ([`super::drift::Misses::chi2`] at `k = 1`), halved, may overstate the
+/// rise of the cost its solve brings before the admission trusts it to
+/// turn the loop away unsolved. In a linear graph it never overstates it: the prior's
 /// chain between the passes is the loosest the loops kept can leave it.
 /// Linearised about a bent path, with the edges of one loop taken as one
 /// measurement, it overstated small rises by up to 1.25x (and understated
@@ -161,6 +162,7 @@ fn admits(rise: f64, dof: f64, sigmas: f64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::correct::config::Group;
     use crate::trajectory::Trajectory;
     use nalgebra::Vector3;
 
@@ -194,7 +196,7 @@ mod tests {
                     ..CorrectConfig::default()
                 };
                 let graph = PoseGraph::build(path, loops, &config).unwrap();
-                let dof = if group == Group::Sim3 { 7.0 } else { 6.0 };
+                let dof = group.dof() as f64;
                 (config, graph, dof)
             })
             .collect()

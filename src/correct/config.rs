@@ -30,6 +30,15 @@ impl Group {
     /// pass twice through the same road 10-50 % apart.
     pub const SCALE_DRIFT: f64 = 0.05;
 
+    /// Degrees of freedom of a node, and of a relative motion between two:
+    /// 7 in Sim(3) (rotation, translation, scale), 6 otherwise.
+    pub fn dof(self) -> usize {
+        match self {
+            Group::Sim3 => 7,
+            _ => 6,
+        }
+    }
+
     /// The concrete group for these loops.
     pub fn resolve(self, loops: &[LoopClosure]) -> Group {
         match self {

@@ -42,7 +42,7 @@ pub fn optimise(
             _ => problem.add_variable(ManifoldType::SE3, params(p, false)),
         })
         .collect();
-    let dof = if graph.group == Group::Sim3 { 7 } else { 6 };
+    let dof = graph.group.dof();
     // The gauge: the path's first pose stays where it was.
     for idx in 0..dof {
         problem.fix_variable(keys[0], idx);

@@ -113,10 +113,11 @@ pub struct Streams {
 /// step has grown this many times past the one they were chosen for. A
 /// drone that sits on the ground creeping a few hundredths of a millimetre
 /// per pose through the warm-up flies at 200 times that: kept at the
-/// warm-up's step, every flying step is a jump (92-96 % of UZH-FPV's poses)
-/// and the grid hundreds of times finer than the poses. 8 stays a third of the jump
-/// limit (`jump_factor`, 25 typical steps), so the running median catches
-/// up before the steps are taken for jumps, and above the 4-8 times by
+/// warm-up's step, every flying step is a jump (92-96 % of UZH-FPV's
+/// poses) and the grid hundreds of times finer than the poses. 8 stays a
+/// third of the jump limit (`jump_factor`, 25 typical steps), so the
+/// running median catches up before the steps are taken for jumps, and
+/// above the 4-8 times by
 /// which walkers, hand-held cameras and drones that take off by hand speed
 /// up after their warm-up, for which the warm-up's choice holds (EuRoC and
 /// TUM-VI covered fewer revisit events when scaled at 4). Only upwards: a
