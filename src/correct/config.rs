@@ -267,6 +267,14 @@ pub struct CorrectConfig {
     /// per kept loop, spread over the cores, so the stream's worker, with
     /// its budget per re-optimisation, does without it.
     pub check_drift: bool,
+    /// Measure a drift the same all along the path (a constant turn and
+    /// scale growth per unit of path: a gyro's bias, a wheel base or a
+    /// LiDAR's calibration off, a monocular odometry's scale running away)
+    /// from the chosen loops, and take it out of the odometry before the
+    /// final solve ([`super::bias`]): the random-walk prior alone corrects
+    /// only the stretches between a loop's passes. Taken only where the
+    /// loops show it beyond chance.
+    pub systematic: bool,
     /// Odometry edge noise.
     pub odometry: OdometryNoise,
     /// Loop edge noise.
@@ -292,6 +300,7 @@ impl Default for CorrectConfig {
             edges_per_loop: 5,
             rigid_loops: false,
             check_drift: true,
+            systematic: true,
             loop_pieces: 5,
             odometry: OdometryNoise::default(),
             loop_noise: LoopNoise::default(),

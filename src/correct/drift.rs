@@ -35,33 +35,56 @@ const MIN_DRIFT_SCALE: f64 = 1e-4;
 pub(super) fn drift_scale(graph: &PoseGraph, active: &[bool]) -> (f64, Vec<bool>) {
     let mut samples: Vec<(usize, Misses)> = Vec::new();
     for (id, _) in active.iter().enumerate().filter(|(_, &a)| a) {
-        samples.push((id, misses(graph, &graph.poses, id)));
+        samples.push((id, misses(graph, &graph.at_rest, id)));
     }
     let mut kept = vec![false; active.len()];
     if samples.is_empty() {
         return (1.0, kept);
     }
-    let log_likelihood = |k: f64| -> f64 {
-        samples
-            .iter()
-            .map(|(_, m)| m.ln_p(k).max(m.ln_p(1.0)))
-            .sum()
-    };
-    let steps = (MIN_DRIFT_SCALE.log10().abs() * 10.0).round() as i32;
-    let k = (0..=steps)
-        .map(|i| 10f64.powf(-(i as f64) / 10.0))
-        .max_by(|&a, &b| log_likelihood(a).total_cmp(&log_likelihood(b)))
-        .unwrap_or(1.0);
+    let (k, _) = most_likely(samples.iter().map(|(_, m)| m));
     for (id, m) in &samples {
         kept[*id] = m.ln_p(k) >= m.ln_p(1.0);
     }
     (k, kept)
 }
 
+/// The factor `k` that maximises the likelihood of the loops' `misses`,
+/// all of them right, and that likelihood.
+pub(super) fn most_likely_right(misses: &[Misses]) -> (f64, f64) {
+    grid_max(|k| misses.iter().map(|m| m.ln_p(k)).sum())
+}
+
+/// The factor on the log grid of [`drift_scale`] that maximises
+/// `log_likelihood`, and its value.
+fn grid_max(log_likelihood: impl Fn(f64) -> f64) -> (f64, f64) {
+    let steps = (MIN_DRIFT_SCALE.log10().abs() * 10.0).round() as i32;
+    (0..=steps)
+        .map(|i| {
+            let k = 10f64.powf(-(i as f64) / 10.0);
+            (k, log_likelihood(k))
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((1.0, 0.0))
+}
+
+/// The factor `k` that maximises the likelihood of the loops' `misses`,
+/// each right or anywhere the prior reaches ([`drift_scale`]), and that
+/// likelihood.
+fn most_likely<'a>(misses: impl Iterator<Item = &'a Misses> + Clone) -> (f64, f64) {
+    grid_max(|k| misses.clone().map(|m| m.ln_p(k).max(m.ln_p(1.0))).sum())
+}
+
 /// The misses of loop `id`'s edges at `solution` and the variances the
 /// prior's odometry chain between its passes and its own noise give them
 /// ([`drift_scale`]).
 pub(super) fn misses(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> Misses {
+    chain(graph, id).at(graph, solution, id)
+}
+
+/// The variances the prior's odometry chain between loop `id`'s passes
+/// gives its misses, with no miss yet ([`Misses::at`]): they do not depend
+/// on where the nodes lie.
+pub(super) fn chain(graph: &PoseGraph, id: usize) -> Misses {
     let sim3 = graph.group == Group::Sim3;
     let edges: Vec<&graph::Edge> = graph.loop_edges(id).collect();
     let n = edges.len().max(1) as f64;
@@ -70,35 +93,6 @@ pub(super) fn misses(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> 
         ..Misses::default()
     };
     for e in &edges {
-        let (r, w) = miss(solution, e);
-        // Misses along a loose axis (a slide, a height) are the loop's own
-        // freedom, not drift.
-        let (mut across, mut a) = (r, 3.0);
-        for l in [e.sigmas.slide, e.sigmas.height].iter().flatten() {
-            across -= l.axis * l.axis.dot(&across);
-            a -= 1.0;
-        }
-        m.translation += across.norm_squared() / n;
-        m.axes += a / n;
-        // The loop's own variance: its edges share one measurement.
-        m.own_translation += e.sigmas.translation.powi(2) / (n * n);
-        let (turn, roll) = match e.sigmas.roll {
-            Some(roll) => (w - roll.axis * roll.axis.dot(&w), roll.axis.dot(&w)),
-            None => (w, 0.0),
-        };
-        m.rotation += turn.norm_squared() / n;
-        m.roll += roll * roll / n;
-        m.own_rotation += e.sigmas.rotation.powi(2) / (n * n);
-        m.own_roll += e
-            .sigmas
-            .roll
-            .map_or(0.0, |r| r.sigma.powi(2) - e.sigmas.rotation.powi(2))
-            / (n * n);
-        if sim3 {
-            let predicted = solution[e.from].scale * e.from_T_to.scale;
-            m.scale += (predicted / solution[e.to].scale).ln().powi(2) / n;
-            m.own_scale += e.sigmas.log_scale.powi(2) / (n * n);
-        }
         let far = graph.poses[e.to].translation;
         let (a, b) = (e.from.min(e.to), e.from.max(e.to));
         for o in &graph.edges[a..b] {
@@ -116,7 +110,7 @@ pub(super) fn misses(graph: &PoseGraph, solution: &[Similarity3], id: usize) -> 
 
 /// One loop's misses at a solution and the variances that
 /// explain them ([`drift_scale`]).
-#[derive(Debug, Default)]
+#[derive(Debug, Default, Clone)]
 pub(super) struct Misses {
     /// Mean squared translation miss across the road.
     translation: f64,
@@ -145,8 +139,56 @@ pub(super) struct Misses {
 }
 
 impl Misses {
+    /// These chain variances (from [`chain`]) with loop `id`'s misses at
+    /// `solution` and its own variances.
+    pub(super) fn at(&self, graph: &PoseGraph, solution: &[Similarity3], id: usize) -> Misses {
+        let sim3 = self.sim3;
+        let edges: Vec<&graph::Edge> = graph.loop_edges(id).collect();
+        let n = edges.len().max(1) as f64;
+        let mut m = Misses {
+            sim3,
+            chain_translation: self.chain_translation,
+            chain_lever: self.chain_lever,
+            chain_rotation: self.chain_rotation,
+            chain_scale: self.chain_scale,
+            ..Misses::default()
+        };
+        for e in &edges {
+            let (r, w) = miss(solution, e);
+            // Misses along a loose axis (a slide, a height) are the loop's own
+            // freedom, not drift.
+            let (mut across, mut a) = (r, 3.0);
+            for l in [e.sigmas.slide, e.sigmas.height].iter().flatten() {
+                across -= l.axis * l.axis.dot(&across);
+                a -= 1.0;
+            }
+            m.translation += across.norm_squared() / n;
+            m.axes += a / n;
+            // The loop's own variance: its edges share one measurement.
+            m.own_translation += e.sigmas.translation.powi(2) / (n * n);
+            let (turn, roll) = match e.sigmas.roll {
+                Some(roll) => (w - roll.axis * roll.axis.dot(&w), roll.axis.dot(&w)),
+                None => (w, 0.0),
+            };
+            m.rotation += turn.norm_squared() / n;
+            m.roll += roll * roll / n;
+            m.own_rotation += e.sigmas.rotation.powi(2) / (n * n);
+            m.own_roll += e
+                .sigmas
+                .roll
+                .map_or(0.0, |r| r.sigma.powi(2) - e.sigmas.rotation.powi(2))
+                / (n * n);
+            if sim3 {
+                let predicted = solution[e.from].scale * e.from_T_to.scale;
+                m.scale += (predicted / solution[e.to].scale).ln().powi(2) / n;
+                m.own_scale += e.sigmas.log_scale.powi(2) / (n * n);
+            }
+        }
+        m
+    }
+
     /// Log-likelihood of the misses with the prior's sigmas times `k`.
-    fn ln_p(&self, k: f64) -> f64 {
+    pub(super) fn ln_p(&self, k: f64) -> f64 {
         let v = self.variances(k);
         -0.5 * (self.axes * v.translation.ln() + 2.0 * v.rotation.ln() + v.roll.ln())
             - 0.5 * self.chi2(k)

@@ -158,6 +158,9 @@ pub struct PoseGraph {
     pub keyframes: Vec<usize>,
     /// `world_T_node` of each node as the path has it (scale 1).
     pub poses: Vec<Similarity3>,
+    /// Where the odometry edges alone put the nodes: `poses`, or `poses`
+    /// with a systematic drift taken out ([`PoseGraph::without`]).
+    pub at_rest: Vec<Similarity3>,
     /// Odometry edges first (node k to k + 1), then loop edges.
     pub edges: Vec<Edge>,
     /// Sim(3) nodes (scale drifts) or SE(3).
@@ -228,6 +231,7 @@ impl PoseGraph {
         }
         Ok(PoseGraph {
             keyframes,
+            at_rest: poses.clone(),
             poses,
             edges,
             group,

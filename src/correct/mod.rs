@@ -11,6 +11,9 @@
 //!         admit)
 //!      -> drift measured from the chosen loops, and the loops it explains
 //!         (checked by leaving each kept loop out: held_out)
+//!      -> a drift the same all along (a turn; in Sim(3) also a scale
+//!         growth) taken out of the odometry where the loops, each left
+//!         out in turn, show it: bias
 //!      -> final solve, each loop's passes laid at one height
 //!         (LoopClosure::levelled, on a path that keeps to a surface),
 //!         a loop its one similarity misfits cut into pieces
@@ -42,6 +45,7 @@
 // Frame names as in Sophus: `a_T_b` maps points from b to a.
 #![allow(non_snake_case)]
 
+pub mod bias;
 pub mod config;
 pub mod g2o;
 pub mod graph;
@@ -55,6 +59,7 @@ mod held_out;
 mod look_alike;
 mod sim3_between;
 
+pub use bias::Bias;
 pub use config::{CorrectConfig, Group, LoopNoise, OdometryNoise};
 pub use graph::PoseGraph;
 pub use loops::LoopClosure;
@@ -89,6 +94,10 @@ pub struct Corrected {
     pub loops: Vec<LoopVerdict>,
     /// The group the graph was solved in.
     pub group: Group,
+    /// The drift the same all along that was taken out of the odometry
+    /// ([`CorrectConfig::systematic`]); `None` where the loops kept show
+    /// none, or none is kept.
+    pub bias: Option<Bias>,
     /// The graph before optimisation.
     pub graph: PoseGraph,
     /// `world_T_node` of each node of `graph` after optimisation.
@@ -217,6 +226,12 @@ pub fn correct_again_from(
                 .collect(),
         );
     };
+    // A drift the same all along (CorrectConfig::systematic) is taken out
+    // of the odometry first.
+    let bias = config
+        .systematic
+        .then(|| bias::measure(&measured, &chosen, config.reject_above))
+        .flatten();
     // The final solve takes the chosen loops in pieces
     // (LoopClosure::pieces), levelled (LoopClosure::levelled).
     let (mut pieces, mut owner, mut levelled) = (Vec::new(), Vec::new(), Vec::new());
@@ -231,21 +246,25 @@ pub fn correct_again_from(
         levelled.push(whole);
     }
     let at = |k: f64| {
-        PoseGraph::build(
+        let graph = PoseGraph::build(
             path,
             &pieces,
             &CorrectConfig {
                 odometry: config.odometry.scaled(k.min(1.0)),
                 ..fit.clone()
             },
-        )
+        )?;
+        Ok(match &bias {
+            Some(b) => graph.without(b),
+            None => graph,
+        })
     };
     let graph = at(k)?;
     let start_active: Vec<bool> = owner.iter().map(|&id| chosen[id]).collect();
     // The pieces add keyframes: the final graph's start is its own.
     let start_final = previous
         .and_then(|p| start_from(&graph, p, &p.solution))
-        .unwrap_or_else(|| graph.poses.clone());
+        .unwrap_or_else(|| graph.at_rest.clone());
     let (active, solution) = settle(&graph, &start_final, &pieces, start_active, config)?;
     // The measured drift checked by the loops themselves
     // (CorrectConfig::check_drift).
@@ -283,10 +302,12 @@ pub fn correct_again_from(
             }
         })
         .collect();
+    let bias = bias.filter(|_| active.iter().any(|a| *a));
     Ok(Corrected {
         poses: carry(path, &graph, &solution),
         loops: verdicts,
         group: graph.group,
+        bias,
         graph,
         solution,
         chosen: chosen_solution,

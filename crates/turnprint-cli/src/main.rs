@@ -87,8 +87,11 @@ enum Command {
         #[arg(short, long)]
         output: PathBuf,
         /// Print one JSON object (cli.md) with the loops kept and rejected;
-        /// also the graph's `group`, and per loop `reversed`, `residual`
-        /// (sigmas after the solve), `scale`, `scale_shown` (whether the
+        /// also the graph's `group`, the `bias` taken out of the odometry
+        /// (a turn and a scale growth the same all along: `turn_degrees`
+        /// and `scale` over the whole path, or null), and per loop
+        /// `reversed`, `residual` (sigmas after the solve), `scale`,
+        /// `scale_shown` (whether the
         /// passes' shape fixes that scale: only those count for `auto`) and
         /// `height` (how far apart in height its passes lay before the
         /// final solve levelled them: the odometry's height drift there).
@@ -651,6 +654,9 @@ fn run_correct(
         let out = json!({
             "path": a.display().to_string(), "poses": ta.len(),
             "group": corrected.group.name(),
+            "bias": corrected.bias.map(|b| json!({
+                "turn_degrees": b.turn.to_degrees(), "scale": b.log_scale.exp(),
+            })),
             "kept": kept, "rejected": corrected.loops.len() - kept,
             "loops": entries, "seconds": seconds,
         });

@@ -42,7 +42,7 @@ pub fn to_g2o(graph: &PoseGraph) -> String {
         ("VERTEX_SE3:QUAT", "EDGE_SE3:QUAT")
     };
     let mut out = String::new();
-    for (id, p) in graph.poses.iter().enumerate() {
+    for (id, p) in graph.at_rest.iter().enumerate() {
         let _ = writeln!(out, "{vertex} {id} {}", pose(p, sim3));
     }
     for e in &graph.edges {
@@ -146,6 +146,7 @@ mod tests {
         });
         PoseGraph {
             keyframes: (0..4).collect(),
+            at_rest: poses.clone(),
             poses,
             edges,
             group,

@@ -153,6 +153,7 @@ pub fn from_g2o(text: &str) -> Result<PoseGraph> {
     }
     Ok(PoseGraph {
         keyframes: (0..n).collect(),
+        at_rest: poses.clone(),
         poses,
         edges: out,
         group: if kind == Kind::Sim3 {
