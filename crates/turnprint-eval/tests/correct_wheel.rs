@@ -5,8 +5,20 @@
 
 use turnprint::correct::{correct, CorrectConfig};
 use turnprint::io::{read_trajectory, Format};
+use turnprint::Trajectory;
 use turnprint_eval::data::require;
-use turnprint_eval::relations::{errors, read};
+use turnprint_eval::relations::{errors, read, Relation};
+
+/// ACES's wheel odometry and its measured relations; `None` (the test
+/// skips) without the shared data.
+fn aces() -> Option<(Trajectory, Vec<Relation>)> {
+    let odometry = require("carmen/more/aces_odom.csv")?;
+    let measured = require("carmen/more/aces.relations")?;
+    Some((
+        read_trajectory(&odometry, Format::Auto).unwrap(),
+        read(&measured).unwrap(),
+    ))
+}
 
 /// Regression: the CSV reader dropped the `theta` column, so a corrected
 /// wheel odometry came out with every heading the identity (ACES: mean
@@ -15,14 +27,9 @@ use turnprint_eval::relations::{errors, read};
 /// motion and the revisits both stay within 5 % of the odometry's errors.
 #[test]
 fn correcting_wheel_odometry_keeps_its_heading_and_harms_no_measured_relation() {
-    let (Some(odometry), Some(measured)) = (
-        require("carmen/more/aces_odom.csv"),
-        require("carmen/more/aces.relations"),
-    ) else {
+    let Some((path, relations)) = aces() else {
         return;
     };
-    let path = read_trajectory(&odometry, Format::Auto).unwrap();
-    let relations = read(&measured).unwrap();
     let (all, revisits) = errors(&path.poses, &relations).expect("timed poses with headings");
     assert_eq!(all.count, relations.len());
     assert!(revisits.count >= 50, "{revisits:?}");
@@ -87,14 +94,9 @@ fn a_wheeled_robots_loops_are_judged_by_its_relations_and_cover_more_than_the_na
 fn a_wheel_odometrys_heading_bias_streamed_is_taken_out_at_its_far_revisits() {
     use turnprint::online::correction::LoopInput;
     use turnprint::online::{Detector, OnlineConfig, Overflow, PoseInput};
-    let (Some(odometry), Some(measured)) = (
-        require("carmen/more/aces_odom.csv"),
-        require("carmen/more/aces.relations"),
-    ) else {
+    let Some((path, relations)) = aces() else {
         return;
     };
-    let path = read_trajectory(&odometry, Format::Auto).unwrap();
-    let relations = read(&measured).unwrap();
     let (_, before) = errors(&path.poses, &relations).expect("timed poses with headings");
     let mut d = Detector::new(OnlineConfig::default(), Overflow::Block)
         .with_correction(CorrectConfig::default(), LoopInput::Candidates);
