@@ -19,11 +19,13 @@
 //!
 //! (in a Sim(3) graph the node's scale is `exp(-σ f_k)` and its steps, in
 //! its own units, stay as measured). The bias taken is the one under which
-//! the chosen loops are most likely ([`drift::most_likely`]: each loop right
-//! or anywhere the prior reaches, at the most likely drift factor), and
-//! only where it raises that likelihood by more than its two degrees of
-//! freedom do by chance ([`SHOWN`]): a path without a bias keeps its
-//! odometry as measured.
+//! the chosen loops are most likely, at the most likely drift factor
+//! (`drift::most_likely_right`), each rate only where it raises that
+//! likelihood beyond chance at three sigmas, within the prior's three
+//! sigmas over the path, on three loops or more, and where the loops, each
+//! left out in turn, are more likely under the bias the others show than
+//! under none: a path without a bias keeps its odometry as measured, and a
+//! random walk read at a few loops is not taken for a rate.
 
 use nalgebra::{Rotation3, Unit, Vector3};
 
