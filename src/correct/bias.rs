@@ -77,6 +77,15 @@ pub struct Bias {
 }
 
 impl Bias {
+    /// As `correct --json` and `stream`'s `corrected` event report it: the
+    /// turn in degrees and the factor of scale over the whole path.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "turn_degrees": self.turn.to_degrees(),
+            "scale": self.log_scale.exp(),
+        })
+    }
+
     /// `poses` (nodes of one path, in order) with the bias taken out.
     pub fn remove(&self, poses: &[Similarity3], group: Group) -> Vec<Similarity3> {
         let fraction = fractions(poses);

@@ -24,7 +24,7 @@ use std::time::Instant;
 use crossbeam::channel::{unbounded, Receiver, Sender};
 
 use crate::correct::{
-    correct_again_from, correct_with_loops, CorrectConfig, Corrected, LoopClosure,
+    correct_again_from, correct_with_loops, Bias, CorrectConfig, Corrected, LoopClosure,
 };
 use crate::geometry::Similarity3;
 use crate::trajectory::{Pose, Trajectory};
@@ -55,6 +55,8 @@ pub struct Correction {
     pub largest_move: f64,
     /// Seconds the solve took on the correction thread.
     pub seconds: f64,
+    /// The drift the same all along taken out of the odometry, if any.
+    pub bias: Option<Bias>,
 }
 
 impl Correction {
@@ -68,6 +70,7 @@ impl Correction {
             "kept": self.kept,
             "largest_move": self.largest_move,
             "seconds": self.seconds,
+            "bias": self.bias.map(|b| b.to_json()),
             "final": last,
         })
     }
@@ -100,6 +103,7 @@ impl Finished {
             kept: c.kept(),
             largest_move: 0.0,
             seconds: started.elapsed().as_secs_f64(),
+            bias: c.bias,
         };
         crate::io::write_tum(file, &c.trajectory(file.display().to_string()))?;
         writeln!(out, "{}", last.to_json(true)).map_err(io)
@@ -328,6 +332,7 @@ fn run(
             kept: c.kept(),
             largest_move,
             seconds,
+            bias: c.bias,
         });
         previous = Some(c);
     }

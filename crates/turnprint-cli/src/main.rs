@@ -146,7 +146,9 @@ enum Command {
     /// Replays A one pose at a time through the online detector (JSON Lines).
     Stream {
         /// Keep a drift-corrected path up to date as loops arrive (a
-        /// `corrected` event per re-optimisation) and write it here as TUM
+        /// `corrected` event per re-optimisation, with the loops kept and
+        /// the `bias` taken out of the odometry, as `correct --json`'s) and
+        /// write it here as TUM
         /// at the end, corrected with every loop from scratch (the same
         /// however the re-optimisations fell); with --verify only confirmed
         /// loops enter.
@@ -654,9 +656,7 @@ fn run_correct(
         let out = json!({
             "path": a.display().to_string(), "poses": ta.len(),
             "group": corrected.group.name(),
-            "bias": corrected.bias.map(|b| json!({
-                "turn_degrees": b.turn.to_degrees(), "scale": b.log_scale.exp(),
-            })),
+            "bias": corrected.bias.map(|b| b.to_json()),
             "kept": kept, "rejected": corrected.loops.len() - kept,
             "loops": entries, "seconds": seconds,
         });

@@ -724,6 +724,12 @@ fn correct_json_follows_the_contract() {
         ["SE3", "Sim3"].contains(&v["group"].as_str().unwrap()),
         "{v}"
     );
+    // The bias taken out of the odometry: none, or a turn and a scale.
+    let bias = &v["bias"];
+    assert!(
+        bias.is_null() || (bias["turn_degrees"].is_f64() && bias["scale"].as_f64() > Some(0.0)),
+        "{v}"
+    );
     let loops = v["loops"].as_array().unwrap();
     let kept = loops.iter().filter(|l| l["kept"] == true).count();
     assert!(kept > 0, "no loop kept on S-PTAM 00: {v}");
