@@ -662,9 +662,17 @@ fn run_correct(
         });
         print_json(&out)
     } else {
+        // The bias taken out, in the words of `correct --json`'s fields.
+        let bias = corrected.bias.map_or(String::new(), |b| {
+            format!(
+                ", a turn of {:.1}° and a scale of {:.3} over the path taken out",
+                b.turn.to_degrees(),
+                b.log_scale.exp()
+            )
+        });
         writeln!(
             std::io::stdout(),
-            "{} ({} poses): {} loops kept, {} rejected ({} graph, {:.2} s); corrected path in {}",
+            "{} ({} poses): {} loops kept, {} rejected ({} graph{bias}, {:.2} s); corrected path in {}",
             a.display(),
             ta.len(),
             kept,
