@@ -171,22 +171,20 @@ pub(super) fn measure(graph: &PoseGraph, active: &[bool], gate: f64) -> Option<B
     // (Group::resolve): only its turn is measured. Its loops slide along
     // the road, and their misses across it fix no scale: a growth fitted
     // to them bends streamed KITTI MULLS 06 from 0.28 to 6.39 m.
-    let scale = match graph.group {
-        Group::Sim3 => 2,
-        _ => 1,
-    };
+    let scale = graph.group == Group::Sim3;
     // The most likely drift factor and its likelihood for the loops `of`.
-    let likely = |m: &[drift::Misses], of: &[usize]| {
-        let chosen: Vec<drift::Misses> = of.iter().map(|&i| m[i].clone()).collect();
-        drift::most_likely_right(&chosen)
-    };
+    let likely =
+        |m: &[drift::Misses], of: &[usize]| drift::most_likely_right(of.iter().map(|&i| &m[i]));
     // The rates the loops `of` show: each enters only where it explains
     // them beyond chance, the turn first, then the scale growth beside it.
     let fit = |of: &[usize]| -> [f64; 2] {
         let likelihood = |b: [f64; 2]| likely(&misses_at(b), of).1;
         let none = likelihood([0.0, 0.0]);
         let (turned, turn) = search(&likelihood, [0.0, 0.0], none, 1, bound);
-        let (grown, both) = search(&likelihood, turn, turned, scale, bound);
+        let (grown, both) = match scale {
+            true => search(&likelihood, turn, turned, 2, bound),
+            false => (turned, turn),
+        };
         if 2.0 * (grown - turned) > SHOWN {
             both
         } else if 2.0 * (turned - none) > SHOWN {

@@ -50,8 +50,10 @@ pub(super) fn drift_scale(graph: &PoseGraph, active: &[bool]) -> (f64, Vec<bool>
 
 /// The factor `k` that maximises the likelihood of the loops' `misses`,
 /// all of them right, and that likelihood.
-pub(super) fn most_likely_right(misses: &[Misses]) -> (f64, f64) {
-    grid_max(|k| misses.iter().map(|m| m.ln_p(k)).sum())
+pub(super) fn most_likely_right<'a>(
+    misses: impl Iterator<Item = &'a Misses> + Clone,
+) -> (f64, f64) {
+    grid_max(|k| misses.clone().map(|m| m.ln_p(k)).sum())
 }
 
 /// The factor on the log grid of [`drift_scale`] that maximises
@@ -110,7 +112,7 @@ pub(super) fn chain(graph: &PoseGraph, id: usize) -> Misses {
 
 /// One loop's misses at a solution and the variances that
 /// explain them ([`drift_scale`]).
-#[derive(Debug, Default, Clone)]
+#[derive(Debug, Default)]
 pub(super) struct Misses {
     /// Mean squared translation miss across the road.
     translation: f64,
