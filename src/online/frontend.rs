@@ -117,10 +117,10 @@ pub struct Streams {
 /// poses) and the grid hundreds of times finer than the poses. 8 stays a
 /// third of the jump limit (`jump_factor`, 25 typical steps), so the
 /// running median catches up before the steps are taken for jumps, and
-/// above the 4-8 times by
-/// which walkers, hand-held cameras and drones that take off by hand speed
-/// up after their warm-up, for which the warm-up's choice holds (EuRoC and
-/// TUM-VI covered fewer revisit events when scaled at 4). Only upwards: a
+/// above the 4-8 times by which walkers, hand-held cameras and drones that
+/// take off by hand speed up after their warm-up, for which the warm-up's
+/// choice holds (EuRoC and TUM-VI covered fewer revisit events when scaled
+/// at 4). Only upwards: a
 /// path that slows down is sampled as the batch path samples one whose
 /// median step is its fast parts'.
 const SPEED_CHANGE: f64 = 8.0;
