@@ -197,11 +197,17 @@ pub fn correct_again_from(
     // ones away. The loops chosen and not banned enter together, and those
     // turned away are tried again. Each round bans a loop, so this ends.
     // A look-alike, whose similarity lays the passes farther apart than
-    // they lie (LoopClosure::looks_alike), is turned away before the choice.
+    // they lie (LoopClosure::looks_alike) or at a scale beyond the odometry
+    // prior's drift of scale over the whole path at the gate's sigmas
+    // (LoopClosure::out_of_scale), is turned away before the choice.
     let positions = path.positions();
+    let scale_bound = config.reject_above * config.odometry.log_scale;
     let mut banned: Vec<bool> = loops
         .iter()
-        .map(|l| in_path(l, positions.len()) && l.looks_alike(&positions))
+        .map(|l| {
+            in_path(l, positions.len())
+                && (l.looks_alike(&positions) || l.out_of_scale(scale_bound))
+        })
         .collect();
     let mut remaining: Option<Vec<bool>> = None;
     let (k, chosen, chosen_solution) = loop {

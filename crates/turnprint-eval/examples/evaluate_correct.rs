@@ -18,6 +18,8 @@
 //! search's (what the graph makes of right loops); `NODES=n` and `TOP=k`
 //! set the graph's even keyframes and the loops taken from the search,
 //! `RIGID=1` takes the loops as rigid motions (`CorrectConfig::rigid_loops`),
+//! `SIMILAR=1` corrects each estimate under a random similarity (scale 0.01
+//! to 100, any rotation) and driven the other way,
 //! `GROUP=se3` or `GROUP=sim3` sets the node group instead of `auto`.
 //! Drones' and hand-held cameras' motion-capture truths are a second table
 //! (do no harm: how far the correction moves them), wheeled robots' dead
@@ -333,7 +335,7 @@ fn synthetic(dir: &Path) {
                     c.kept()
                 );
                 if std::env::var("VERBOSE").is_ok() {
-                    print_loops(&c, &t);
+                    print_loops(&c, &t, &est);
                 }
                 ratios.push(a.rmse / b.rmse);
                 kept.push(c.kept() as f64);
@@ -356,7 +358,7 @@ fn synthetic(dir: &Path) {
 
 /// `VERBOSE=1`: every loop of `c` on stderr, with the true distance
 /// between its two passes (`truth` paired pose by pose with the input).
-fn print_loops(c: &turnprint::correct::Corrected, truth: &[Vector3<f64>]) {
+fn print_loops(c: &turnprint::correct::Corrected, truth: &[Vector3<f64>], est: &[Vector3<f64>]) {
     for l in &c.loops {
         let q = &l.closure;
         let offset = turnprint_eval::revisits::true_offset(q.query_range, q.match_range, truth);
@@ -369,11 +371,19 @@ fn print_loops(c: &turnprint::correct::Corrected, truth: &[Vector3<f64>]) {
             .sum::<f64>()
             / part.len() as f64)
             .sqrt();
+        // The later pass's length over the path's, and over how far apart
+        // the path has the passes, in the estimate.
+        let arc = turnprint_eval::revisits::arc_lengths(est);
+        let length =
+            arc[q.query_range[1].min(arc.len() - 1)] - arc[q.query_range[0].min(arc.len() - 1)];
+        let share = length / arc.last().copied().unwrap_or(1.0).max(f64::MIN_POSITIVE);
+        let over_apart = length / q.apart(est).max(f64::MIN_POSITIVE);
         eprintln!(
-            "  q {:?} m {:?} rev {} score {:.2} scale {:.3} rmse {:.2} residual {:.1} kept {} true dist {:.1} m, moves the truth {:.2}",
-            q.query_range, q.match_range, q.reversed, q.score, q.query_T_match.scale, q.rmse, l.residual, l.kept, offset, moved
+            "  q {:?} m {:?} rev {} score {:.2} scale {:.3} rmse {:.2} residual {:.1} kept {} true dist {:.1} m, moves the truth {:.2}, {:.2} % of the path, {:.1} times the passes' distance",
+            q.query_range, q.match_range, q.reversed, q.score, q.query_T_match.scale, q.rmse, l.residual, l.kept, offset, moved, 100.0 * share, over_apart
         );
     }
+    eprintln!("  --");
 }
 
 /// `ORACLE=1`: the loops the truth shows (every revisit within 3 m, cut
@@ -442,6 +452,62 @@ fn config() -> CorrectConfig {
     c
 }
 
+/// A seed per estimate, the same in every run.
+fn case_seed(name: &str, seq: &str) -> u64 {
+    name.bytes()
+        .chain(seq.bytes())
+        .fold(1469598103934665603u64, |h, b| {
+            (h ^ b as u64).wrapping_mul(1099511628211)
+        })
+}
+
+/// `est` under a random similarity (scale 0.01 to 100, any rotation),
+/// driven the other way (its times negated, so that they still rise), and
+/// the similarity that takes it back.
+#[allow(non_snake_case)]
+fn moved_and_reversed(
+    est: &Trajectory,
+    seed: u64,
+) -> (Trajectory, turnprint::geometry::Similarity3) {
+    use rand::SeedableRng;
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let input_T_est = turnprint_eval::similarity::random_similarity(&mut rng, 100.0);
+    let turn = nalgebra::UnitQuaternion::from_matrix(&input_T_est.rotation);
+    let poses = est
+        .poses
+        .iter()
+        .rev()
+        .map(|p| turnprint::Pose {
+            t: p.t.map(|t| -t),
+            position: input_T_est.apply(&p.position),
+            orientation: p.orientation.map(|q| turn * q),
+        })
+        .collect();
+    let moved = Trajectory {
+        source: est.source.clone(),
+        poses,
+    };
+    (moved, input_T_est.inverse())
+}
+
+/// The corrected path of a moved and reversed input in the estimate's
+/// frame and order ([`moved_and_reversed`]); as it is otherwise.
+#[allow(non_snake_case)]
+fn taken_back(
+    mut c: turnprint::correct::Corrected,
+    est_T_input: &turnprint::geometry::Similarity3,
+    reversed: bool,
+) -> turnprint::correct::Corrected {
+    for p in &mut c.poses {
+        p.position = est_T_input.apply(&p.position);
+    }
+    if reversed {
+        c.poses.reverse();
+    }
+    c
+}
+
+#[allow(non_snake_case)]
 fn main() {
     let dir = data_dir();
     if std::env::var("SYNTH").is_ok() {
@@ -468,14 +534,21 @@ fn main() {
             continue;
         };
         let started = Instant::now();
+        // `SIMILAR=1`: the estimate under a random similarity, driven the
+        // other way; its corrected path taken back for the APE.
+        let similar = std::env::var("SIMILAR").is_ok();
+        let (input, est_T_input) = match similar {
+            true => moved_and_reversed(&est, case_seed(&case.name, &case.seq)),
+            false => (est.clone(), turnprint::geometry::Similarity3::identity()),
+        };
         let result = if std::env::var("ORACLE").is_ok() {
             oracle(&est, &truth)
         } else if online {
-            streamed(&est)
+            streamed(&input)
         } else {
-            correct(&est, &config())
+            correct(&input, &config())
         };
-        let corrected = match result {
+        let corrected = match result.map(|c| taken_back(c, &est_T_input, similar)) {
             Ok(c) => c,
             Err(e) => {
                 println!(
@@ -492,7 +565,7 @@ fn main() {
         let after_positions: Vec<_> = corrected.poses.iter().map(|p| p.position).collect();
         let after = ape(&after_positions, &truth, case.alignment).map_or(f64::NAN, |s| s.rmse);
         if std::env::var("VERBOSE").is_ok() {
-            print_loops(&corrected, &truth);
+            print_loops(&corrected, &truth, &est.positions());
         }
         let kept = corrected.kept();
         println!(
