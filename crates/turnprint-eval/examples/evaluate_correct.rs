@@ -461,37 +461,8 @@ fn case_seed(name: &str, seq: &str) -> u64 {
         })
 }
 
-/// `est` under a random similarity (scale 0.01 to 100, any rotation),
-/// driven the other way (its times negated, so that they still rise), and
-/// the similarity that takes it back.
-#[allow(non_snake_case)]
-fn moved_and_reversed(
-    est: &Trajectory,
-    seed: u64,
-) -> (Trajectory, turnprint::geometry::Similarity3) {
-    use rand::SeedableRng;
-    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let input_T_est = turnprint_eval::similarity::random_similarity(&mut rng, 100.0);
-    let turn = nalgebra::UnitQuaternion::from_matrix(&input_T_est.rotation);
-    let poses = est
-        .poses
-        .iter()
-        .rev()
-        .map(|p| turnprint::Pose {
-            t: p.t.map(|t| -t),
-            position: input_T_est.apply(&p.position),
-            orientation: p.orientation.map(|q| turn * q),
-        })
-        .collect();
-    let moved = Trajectory {
-        source: est.source.clone(),
-        poses,
-    };
-    (moved, input_T_est.inverse())
-}
-
 /// The corrected path of a moved and reversed input in the estimate's
-/// frame and order ([`moved_and_reversed`]); as it is otherwise.
+/// frame and order (`similarity::moved_and_reversed`); as it is otherwise.
 #[allow(non_snake_case)]
 fn taken_back(
     mut c: turnprint::correct::Corrected,
@@ -538,7 +509,12 @@ fn main() {
         // other way; its corrected path taken back for the APE.
         let similar = std::env::var("SIMILAR").is_ok();
         let (input, est_T_input) = match similar {
-            true => moved_and_reversed(&est, case_seed(&case.name, &case.seq)),
+            true => {
+                use rand::SeedableRng;
+                let seed = case_seed(&case.name, &case.seq);
+                let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+                turnprint_eval::similarity::moved_and_reversed(&est, &mut rng)
+            }
             false => (est.clone(), turnprint::geometry::Similarity3::identity()),
         };
         let result = if std::env::var("ORACLE").is_ok() {

@@ -8,6 +8,7 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector4};
 use rand::Rng;
 
 use turnprint::geometry::Similarity3;
+use turnprint::{Pose, Trajectory};
 
 /// One standard normal sample (Box-Muller), so no extra distribution crate
 /// is needed.
@@ -44,6 +45,30 @@ pub fn random_similarity(rng: &mut impl Rng, extent: f64) -> Similarity3 {
         rotation,
         translation,
     }
+}
+
+/// `path` under a random similarity ([`random_similarity`], extent 100)
+/// and driven the other way (its times negated, so that they still rise),
+/// and the similarity that takes it back (`path_T_moved`).
+#[allow(non_snake_case)]
+pub fn moved_and_reversed(path: &Trajectory, rng: &mut impl Rng) -> (Trajectory, Similarity3) {
+    let moved_T_path = random_similarity(rng, 100.0);
+    let turn = UnitQuaternion::from_matrix(&moved_T_path.rotation);
+    let poses = path
+        .poses
+        .iter()
+        .rev()
+        .map(|p| Pose {
+            t: p.t.map(|t| -t),
+            position: moved_T_path.apply(&p.position),
+            orientation: p.orientation.map(|q| turn * q),
+        })
+        .collect();
+    let moved = Trajectory {
+        source: path.source.clone(),
+        poses,
+    };
+    (moved, moved_T_path.inverse())
 }
 
 /// Angle (degrees) of the rotation taking `r_true` to `r_est`.
@@ -111,5 +136,26 @@ mod tests {
         let p = vec![Vector3::new(1.0, 2.0, 3.0); 5];
         assert!(Similarity3::fit(&p, &p).is_none());
         assert!(Similarity3::fit(&p[..2], &p[..2]).is_none());
+    }
+
+    /// Moved, reversed and taken back, a path is itself again, in its
+    /// order; moved, its times still rise.
+    #[test]
+    #[allow(non_snake_case)]
+    fn a_path_moved_and_reversed_is_taken_back_by_the_returned_similarity() {
+        let path = Trajectory {
+            source: "walk".into(),
+            poses: (0..20)
+                .map(|i| Pose {
+                    t: Some(i as f64 * 0.1),
+                    ..Pose::at(Vector3::new(i as f64, (i as f64 * 0.3).sin(), 0.5))
+                })
+                .collect(),
+        };
+        let (moved, path_T_moved) = moved_and_reversed(&path, &mut StdRng::seed_from_u64(3));
+        assert!(moved.poses.windows(2).all(|w| w[0].t < w[1].t));
+        for (p, m) in path.poses.iter().zip(moved.poses.iter().rev()) {
+            assert!((path_T_moved.apply(&m.position) - p.position).norm() < 1e-9);
+        }
     }
 }
