@@ -474,6 +474,14 @@ fn taken_back(
     }
     if reversed {
         c.poses.reverse();
+        // The loops' ranges in the estimate's order, for `VERBOSE=1` (their
+        // similarities stay in the input's frame).
+        let last = c.poses.len().saturating_sub(1);
+        let back = |r: [usize; 2]| [last - r[1].min(last), last - r[0].min(last)];
+        for l in &mut c.loops {
+            l.closure.query_range = back(l.closure.query_range);
+            l.closure.match_range = back(l.closure.match_range);
+        }
     }
     c
 }
