@@ -663,11 +663,16 @@ fn run_correct(
         print_json(&out)
     } else {
         // The bias taken out, in the words of `correct --json`'s fields.
+        // An SE(3) graph measures no scale growth: only the turn is named.
         let bias = corrected.bias.map_or(String::new(), |b| {
+            let scale = if b.log_scale == 0.0 {
+                String::new()
+            } else {
+                format!(" and a scale of {:.3}", b.log_scale.exp())
+            };
             format!(
-                ", a turn of {:.1}° and a scale of {:.3} over the path taken out",
-                b.turn.to_degrees(),
-                b.log_scale.exp()
+                ", a turn of {:.1}°{scale} over the path taken out",
+                b.turn.to_degrees()
             )
         });
         writeln!(
