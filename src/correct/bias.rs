@@ -1,7 +1,8 @@
 //! Systematic drift: odometry that turns, and whose scale grows, at one
-//! rate along the path (a gyro's bias about the vertical, a wheel base or
-//! a LiDAR's calibration slightly off, a monocular odometry's scale running
-//! away), measured from the chosen loops and taken out of the odometry
+//! rate along the path (a gyro's bias about the vertical, wheels of
+//! unequal radii or a LiDAR's calibration slightly off, a monocular
+//! odometry's scale running away; not a wheel base off, whose error is a
+//! share of each turn: EVALUATION.md, "A wheel base off"), measured from the chosen loops and taken out of the odometry
 //! before the final solve.
 //!
 //! The graph's odometry prior is a random walk: it spreads a loop's miss

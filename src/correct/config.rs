@@ -268,8 +268,8 @@ pub struct CorrectConfig {
     /// its budget per re-optimisation, does without it.
     pub check_drift: bool,
     /// Measure a drift the same all along the path (a constant turn and
-    /// scale growth per unit of path: a gyro's bias, a wheel base or a
-    /// LiDAR's calibration off, a monocular odometry's scale running away)
+    /// scale growth per unit of path: a gyro's bias, wheels of unequal
+    /// radii or a LiDAR's calibration off, a monocular odometry's scale running away)
     /// from the chosen loops, and take it out of the odometry before the
     /// final solve ([`super::bias`]): the random-walk prior alone corrects
     /// only the stretches between a loop's passes. Taken only where the

@@ -19,7 +19,7 @@
 //! set the graph's even keyframes and the loops taken from the search,
 //! `RIGID=1` takes the loops as rigid motions (`CorrectConfig::rigid_loops`),
 //! `SIMILAR=1` corrects each estimate under a random similarity (scale 0.01
-//! to 100, any rotation) and driven the other way,
+//! to 100, any rotation) and driven the other way (not with `ORACLE=1`),
 //! `GROUP=se3` or `GROUP=sim3` sets the node group instead of `auto`.
 //! Drones' and hand-held cameras' motion-capture truths are a second table
 //! (do no harm: how far the correction moves them), wheeled robots' dead
@@ -359,6 +359,8 @@ fn synthetic(dir: &Path) {
 /// `VERBOSE=1`: every loop of `c` on stderr, with the true distance
 /// between its two passes (`truth` paired pose by pose with the input).
 fn print_loops(c: &turnprint::correct::Corrected, truth: &[Vector3<f64>], est: &[Vector3<f64>]) {
+    let arc = turnprint_eval::revisits::arc_lengths(est);
+    let total = arc.last().copied().unwrap_or(1.0).max(f64::MIN_POSITIVE);
     for l in &c.loops {
         let q = &l.closure;
         let offset = turnprint_eval::revisits::true_offset(q.query_range, q.match_range, truth);
@@ -373,10 +375,9 @@ fn print_loops(c: &turnprint::correct::Corrected, truth: &[Vector3<f64>], est: &
             .sqrt();
         // The later pass's length over the path's, and over how far apart
         // the path has the passes, in the estimate.
-        let arc = turnprint_eval::revisits::arc_lengths(est);
         let length =
             arc[q.query_range[1].min(arc.len() - 1)] - arc[q.query_range[0].min(arc.len() - 1)];
-        let share = length / arc.last().copied().unwrap_or(1.0).max(f64::MIN_POSITIVE);
+        let share = length / total;
         let over_apart = length / q.apart(est).max(f64::MIN_POSITIVE);
         eprintln!(
             "  q {:?} m {:?} rev {} score {:.2} scale {:.3} rmse {:.2} residual {:.1} kept {} true dist {:.1} m, moves the truth {:.2}, {:.2} % of the path, {:.1} times the passes' distance",
@@ -514,8 +515,11 @@ fn main() {
         };
         let started = Instant::now();
         // `SIMILAR=1`: the estimate under a random similarity, driven the
-        // other way; its corrected path taken back for the APE.
-        let similar = std::env::var("SIMILAR").is_ok();
+        // other way; its corrected path taken back for the APE. `ORACLE=1`
+        // builds its loops from the truth in the estimate's order and frame,
+        // and takes the estimate as it is.
+        let oracle_loops = std::env::var("ORACLE").is_ok();
+        let similar = std::env::var("SIMILAR").is_ok() && !oracle_loops;
         let (input, est_T_input) = match similar {
             true => {
                 use rand::SeedableRng;
@@ -525,7 +529,7 @@ fn main() {
             }
             false => (est.clone(), turnprint::geometry::Similarity3::identity()),
         };
-        let result = if std::env::var("ORACLE").is_ok() {
+        let result = if oracle_loops {
             oracle(&est, &truth)
         } else if online {
             streamed(&input)

@@ -121,8 +121,8 @@ impl DriftModel {
 }
 
 /// A systematic drift: heading and log-scale errors growing linearly with
-/// the distance travelled, as a miscalibrated wheel base or a monocular
-/// VO's scale drift give (rather than a random walk). At arc length `s` of
+/// the distance travelled, as wheels of unequal radii or a monocular VO's
+/// scale drift give (rather than a random walk). At arc length `s` of
 /// a path of length `L` the step `d` becomes
 /// `exp(log_scale s / L) R_n(heading s / L) d`, `R_n` about the normal of
 /// the path's plane.

@@ -7,7 +7,7 @@
 //! reference (motion capture, GPS) the truth itself, the truth under a
 //! random walk (heading 0.3 rad and log-scale 0.05 one-sigma at the path's
 //! end) and the truth under a systematic bias (heading 0.2 rad and
-//! log-scale 0.15 at the end, signs drawn: a miscalibrated wheel base, a
+//! log-scale 0.15 at the end, signs drawn: wheels of unequal radii, a
 //! monocular VO's growing scale). Every input is put under a random
 //! similarity.
 //!
