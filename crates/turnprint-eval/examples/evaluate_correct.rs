@@ -13,7 +13,8 @@
 //! truth under synthetic drift (random walks and systematic biases, random
 //! similarities, both directions) instead (`SYNTH=wheel`: the drifts whose
 //! name contains it); FILTER then keeps the sequences whose name contains
-//! it. `VERBOSE=1` lists every loop with its true offset.
+//! it. `VERBOSE=1` lists every loop with its true offset on stderr, under
+//! a line naming the estimate (before its table row).
 //! `ORACLE=1` corrects with the loops the ground truth shows instead of the
 //! search's (what the graph makes of right loops); `NODES=n` and `TOP=k`
 //! set the graph's even keyframes and the loops taken from the search,
@@ -513,6 +514,12 @@ fn main() {
             );
             continue;
         };
+        // Whatever a case prints on stderr (`VERBOSE=1`, the stream's
+        // re-optimisations) follows its name there: its table row comes
+        // after.
+        if std::env::var("VERBOSE").is_ok() {
+            eprintln!("{} {}:", case.name, case.seq);
+        }
         let started = Instant::now();
         // `SIMILAR=1`: the estimate under a random similarity, driven the
         // other way; its corrected path taken back for the APE. `ORACLE=1`
