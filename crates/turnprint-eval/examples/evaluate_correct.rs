@@ -21,6 +21,9 @@
 //! `RIGID=1` takes the loops as rigid motions (`CorrectConfig::rigid_loops`),
 //! `SIMILAR=1` corrects each estimate under a random similarity (scale 0.01
 //! to 100, any rotation) and driven the other way (not with `ORACLE=1`),
+//! `SWAPPED=1` the estimate driven the other way with the loops the search
+//! finds on it as it is, their passes swapped (the graph's own dependence
+//! on direction),
 //! `GROUP=se3` or `GROUP=sim3` sets the node group instead of `auto`.
 //! Drones' and hand-held cameras' motion-capture truths are a second table
 //! (do no harm: how far the correction moves them), wheeled robots' dead
@@ -429,6 +432,36 @@ fn oracle(
     correct_with_loops(est, &loops, &config())
 }
 
+/// `SWAPPED=1`: the loops the search finds on the estimate, each with its
+/// passes swapped (the later pass the earlier), on the estimate driven the
+/// other way, corrected and put back in order: how the graph alone depends
+/// on the direction, the loops being the same.
+#[allow(non_snake_case)]
+fn swapped(est: &Trajectory) -> turnprint::Result<turnprint::correct::Corrected> {
+    use turnprint::correct::{correct_with_loops, LoopClosure};
+    let c = config();
+    let last = est.len().saturating_sub(1);
+    let mut reversed = est.clone();
+    reversed.poses.reverse();
+    let back = |r: [usize; 2]| [last - r[1], last - r[0]];
+    let loops = turnprint::find_loops(est, &c.loops)?
+        .iter()
+        .map(|h| {
+            let l = LoopClosure::from_hypothesis(est, h)?;
+            let match_T_query = l.query_T_match.inverse();
+            let (q, m) = (back(l.match_range), back(l.query_range));
+            LoopClosure::new(&reversed, q, m, Some(match_T_query), l.score, l.reversed)
+        })
+        .collect::<turnprint::Result<Vec<_>>>()?;
+    let mut out = correct_with_loops(&reversed, &loops, &c)?;
+    out.poses.reverse();
+    for v in &mut out.loops {
+        let (q, m) = (v.closure.query_range, v.closure.match_range);
+        (v.closure.query_range, v.closure.match_range) = (back(m), back(q));
+    }
+    Ok(out)
+}
+
 /// Default settings, with `NODES=` (keyframes at most), `TOP=` (loops
 /// from the search), `RIGID=1` (`rigid_loops`) and `GROUP=se3|sim3` (the
 /// node group instead of `auto`) to measure their effect.
@@ -540,6 +573,8 @@ fn main() {
             oracle(&est, &truth)
         } else if online {
             streamed(&input)
+        } else if std::env::var("SWAPPED").is_ok() {
+            swapped(&est)
         } else {
             correct(&input, &config())
         };
