@@ -23,7 +23,7 @@
 //! to 100, any rotation) and driven the other way (not with `ORACLE=1`),
 //! `SWAPPED=1` the estimate driven the other way with the loops the search
 //! finds on it as it is, their passes swapped (the graph's own dependence
-//! on direction),
+//! on direction; batch, not with `ORACLE=1` or `SIMILAR=1`),
 //! `GROUP=se3` or `GROUP=sim3` sets the node group instead of `auto`.
 //! Drones' and hand-held cameras' motion-capture truths are a second table
 //! (do no harm: how far the correction moves them), wheeled robots' dead
@@ -458,6 +458,7 @@ fn swapped(est: &Trajectory) -> turnprint::Result<turnprint::correct::Corrected>
     for v in &mut out.loops {
         let (q, m) = (v.closure.query_range, v.closure.match_range);
         (v.closure.query_range, v.closure.match_range) = (back(m), back(q));
+        v.closure.query_T_match = v.closure.query_T_match.inverse();
     }
     Ok(out)
 }
@@ -559,7 +560,8 @@ fn main() {
         // builds its loops from the truth in the estimate's order and frame,
         // and takes the estimate as it is.
         let oracle_loops = std::env::var("ORACLE").is_ok();
-        let similar = std::env::var("SIMILAR").is_ok() && !oracle_loops;
+        let swap = std::env::var("SWAPPED").is_ok() && !oracle_loops && !online;
+        let similar = std::env::var("SIMILAR").is_ok() && !oracle_loops && !swap;
         let (input, est_T_input) = match similar {
             true => {
                 use rand::SeedableRng;
@@ -573,7 +575,7 @@ fn main() {
             oracle(&est, &truth)
         } else if online {
             streamed(&input)
-        } else if std::env::var("SWAPPED").is_ok() {
+        } else if swap {
             swapped(&est)
         } else {
             correct(&input, &config())
