@@ -2,8 +2,8 @@
 //! rate along the path (a gyro's bias about the vertical, wheels of
 //! unequal radii or a LiDAR's calibration slightly off, a monocular
 //! odometry's scale running away; not a wheel base off, whose error is a
-//! share of each turn: EVALUATION.md, "A wheel base off"), measured from the chosen loops and taken out of the odometry
-//! before the final solve.
+//! share of each turn: EVALUATION.md, "A wheel base off"), measured from
+//! the chosen loops and taken out of the odometry before the final solve.
 //!
 //! The graph's odometry prior is a random walk: it spreads a loop's miss
 //! over the path between the loop's passes and leaves the rest of the path

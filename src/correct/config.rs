@@ -269,11 +269,11 @@ pub struct CorrectConfig {
     pub check_drift: bool,
     /// Measure a drift the same all along the path (a constant turn and
     /// scale growth per unit of path: a gyro's bias, wheels of unequal
-    /// radii or a LiDAR's calibration off, a monocular odometry's scale running away)
-    /// from the chosen loops, and take it out of the odometry before the
-    /// final solve ([`super::bias`]): the random-walk prior alone corrects
-    /// only the stretches between a loop's passes. Taken only where the
-    /// loops show it beyond chance.
+    /// radii or a LiDAR's calibration off, a monocular odometry's scale
+    /// running away) from the chosen loops, and take it out of the odometry
+    /// before the final solve ([`super::bias`]): the random-walk prior
+    /// alone corrects only the stretches between a loop's passes. Taken
+    /// only where the loops show it beyond chance.
     pub systematic: bool,
     /// Odometry edge noise.
     pub odometry: OdometryNoise,
