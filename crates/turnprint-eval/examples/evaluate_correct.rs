@@ -453,12 +453,13 @@ fn swapped(est: &Trajectory) -> turnprint::Result<turnprint::correct::Corrected>
             LoopClosure::new(&reversed, q, m, Some(match_T_query), l.score, l.reversed)
         })
         .collect::<turnprint::Result<Vec<_>>>()?;
-    let mut out = correct_with_loops(&reversed, &loops, &c)?;
-    out.poses.reverse();
+    let identity = turnprint::geometry::Similarity3::identity();
+    let mut out = taken_back(correct_with_loops(&reversed, &loops, &c)?, &identity, true);
+    // Each loop as the search found it forward: its passes swapped back.
     for v in &mut out.loops {
-        let (q, m) = (v.closure.query_range, v.closure.match_range);
-        (v.closure.query_range, v.closure.match_range) = (back(m), back(q));
-        v.closure.query_T_match = v.closure.query_T_match.inverse();
+        let l = &mut v.closure;
+        std::mem::swap(&mut l.query_range, &mut l.match_range);
+        l.query_T_match = l.query_T_match.inverse();
     }
     Ok(out)
 }
