@@ -333,10 +333,12 @@ fn synthetic(dir: &Path) {
                     continue;
                 };
                 eprintln!(
-                    "  {name} {seq} seed {seed}: APE {:.2} -> {:.2} m (truth units), kept {}",
+                    "  {name} {seq} seed {seed}: APE {:.2} -> {:.2} m (truth units), kept {}, {}, bias {}",
                     b.rmse,
                     a.rmse,
-                    c.kept()
+                    c.kept(),
+                    c.group.name(),
+                    c.bias.map_or("none".into(), |b| b.to_json().to_string())
                 );
                 if std::env::var("VERBOSE").is_ok() {
                     print_loops(&c, &t, &est);
