@@ -246,21 +246,45 @@ impl PoseGraph {
 
 /// Pose indices of the nodes: `max_nodes` spread evenly over the path, the
 /// first and last pose, and `edges_per_loop` spread over each range of each
-/// loop, so that a loop shorter than the even spacing still gets its edges.
+/// loop, so that a loop shorter than the even spacing still gets its edges
+/// (on a grid [`LOOP_GRID`] times finer than the even spacing).
 fn keyframes(n: usize, loops: &[LoopClosure], config: &CorrectConfig) -> Vec<usize> {
     let stride = n.div_ceil(config.max_nodes.max(2)).max(1);
     let mut keyframes: Vec<usize> = (0..n).step_by(stride).collect();
     keyframes.push(n - 1);
+    // A loop's keyframes lie on a grid LOOP_GRID times finer than the even
+    // nodes (within its range), so that the loops of one revisit found
+    // again and again share their nodes.
+    let fine = (stride / LOOP_GRID).max(1);
     for l in loops {
         for r in [l.query_range, l.match_range] {
             let (a, b) = (r[0].min(n - 1), r[1].min(n - 1));
-            keyframes.extend(spread(b.saturating_sub(a) + 1, edges(l, config)).map(|k| a + k));
+            keyframes.extend(
+                spread(b.saturating_sub(a) + 1, edges(l, config))
+                    .map(|k| on_grid(a + k, a, b, fine)),
+            );
         }
     }
     keyframes.sort_unstable();
     keyframes.dedup();
     keyframes
 }
+
+/// Pose `i` of the range `a..=b` moved to the nearest multiple of `fine`,
+/// kept within the range.
+fn on_grid(i: usize, a: usize, b: usize, fine: usize) -> usize {
+    ((i + fine / 2) / fine * fine).clamp(a, b)
+}
+
+/// Positions a loop's keyframes may take between two even nodes
+/// ([`keyframes`]). A stream that laps a hall finds each revisit again at
+/// every probe (UZH-FPV forward 6: 809 loops), and each loop's own
+/// keyframes made its graph 5 400 nodes; on a grid, loops of one revisit
+/// share them. Ten: a keyframe moves by at most a twentieth of the even
+/// spacing, less than a loop's own edges lie apart (five over its range);
+/// on paths of under twenty times `max_nodes` poses (KITTI's drives and
+/// EuRoC's estimates, up to 4 661) the grid is every pose.
+const LOOP_GRID: usize = 10;
 
 /// `picks` indices into `0..len` spread evenly, the first and the last
 /// among them; one pick is the middle.
@@ -463,4 +487,63 @@ pub fn orientations(path: &Trajectory) -> Vec<Matrix3<f64>> {
             *nearest_rotation(&last).matrix()
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::loops::tests::walk;
+    use super::*;
+    use crate::geometry::Similarity3;
+
+    /// Regression: a stream that laps a hall finds each revisit again at
+    /// every probe, a few poses on, and each such loop's keyframes were
+    /// nodes of their own (UZH-FPV forward 6: 5 400 nodes, 41 s for the
+    /// last re-optimisation). On a path of 10 000 poses (even nodes every
+    /// 40, a loop's on every 4th pose) four loops of one revisit, a pose
+    /// apart, share their keyframes inside their ranges.
+    #[test]
+    fn loops_of_one_revisit_found_a_few_poses_apart_share_their_keyframes() {
+        let path = Trajectory::from_positions(
+            "square",
+            &walk(&[
+                [0.0, 0.0],
+                [2500.0, 0.0],
+                [2500.0, 2500.0],
+                [0.0, 2500.0],
+                [0.0, 0.0],
+            ]),
+        );
+        let n = path.len();
+        let config = CorrectConfig::default();
+        let twin = |d: usize| {
+            LoopClosure::new(
+                &path,
+                [6003 + d, 6403 + d],
+                [1003 + d, 1403 + d],
+                Some(Similarity3::identity()),
+                1.0,
+                false,
+            )
+            .unwrap()
+        };
+        let even = keyframes(n, &[], &config).len();
+        let one = keyframes(n, &[twin(0)], &config).len() - even;
+        let four = keyframes(n, &(0..4).map(twin).collect::<Vec<_>>(), &config).len() - even;
+        // Each range's two ends stay each loop's own (16 in all); the three
+        // keyframes between them fall on the grid, a pick of four loops a
+        // pose apart on at most two of its points (12), against 40 apart.
+        assert!(one >= 8, "one loop added {one} keyframes");
+        assert!(
+            four <= 16 + 12,
+            "four loops a pose apart added {four}, one {one}"
+        );
+        for l in (0..4).map(twin) {
+            for r in [l.query_range, l.match_range] {
+                let inside = spread(r[1] - r[0] + 1, config.edges_per_loop)
+                    .map(|k| on_grid(r[0] + k, r[0], r[1], 4))
+                    .filter(|&k| k != r[0] && k != r[1]);
+                assert!(inside.into_iter().all(|k| k % 4 == 0));
+            }
+        }
+    }
 }
