@@ -278,9 +278,9 @@ fn on_grid(i: usize, a: usize, b: usize, fine: usize) -> usize {
 
 /// Positions a loop's keyframes may take between two even nodes
 /// ([`keyframes`]). A stream that laps a hall finds each revisit again at
-/// every probe (UZH-FPV forward 6: 809 loops), and each loop's own
-/// keyframes made its graph 5 400 nodes; on a grid, loops of one revisit
-/// share them. Ten: a keyframe moves by at most a twentieth of the even
+/// every probe (UZH-FPV forward 6: 809 loops), and with keyframes of
+/// each loop's own its graph would hold some 5 400 nodes; on a grid, loops
+/// of one revisit share them. Ten: a keyframe moves by at most a twentieth of the even
 /// spacing, less than a loop's own edges lie apart (five over its range);
 /// on paths of under twenty times `max_nodes` poses (KITTI's drives and
 /// EuRoC's estimates, up to 4 661) the grid is every pose.

@@ -440,9 +440,9 @@ fn switched_off(round: usize) -> usize {
 /// Solves [`settle`] spends switching off one loop piece at a time. A
 /// piece switched off lets its neighbours fit, so the worst is taken first
 /// and the graph solved again; but a stream that lays each lap of a hall
-/// onto several others holds hundreds of pieces (UZH-FPV forward 9: 167,
-/// 64 switched off, 5 of its 6.9 s), and a drifting LiDAR stream up to 176
-/// (KITTI 00, LiDAR CVO). 20 covers every batch correction of
+/// onto several others holds hundreds of pieces to switch off (UZH-FPV
+/// forward 9: 64 of 167), and a drifting LiDAR stream up to 176 (KITTI 00,
+/// LiDAR CVO), a solve each. 20 covers every batch correction of
 /// `evaluate_correct` (at most 18); past it each round switches off twice
 /// as many, so a settle takes at most 20 + log2(pieces) solves.
 const SETTLE_ONE_BY_ONE: usize = 20;
