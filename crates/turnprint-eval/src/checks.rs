@@ -6,6 +6,8 @@ use nalgebra::Vector3;
 
 use turnprint::Hypothesis;
 
+use crate::relations::REVISIT_DETOUR;
+
 /// The true common road of A and B: the pose indices of each that lie
 /// within `radius` (ground-truth metres) of the other path.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -209,13 +211,23 @@ pub fn loop_correct(claim: &LoopClaim, truth: &[Vector3<f64>], radius: f64) -> b
     median_nearest(truth, [q0, q1], [m0, m1], |_, _| true) <= radius
 }
 
+/// Least road (in the test's radii) between a pose and a nearer match pose
+/// on another pass: a path jittering in place (a drone's hover) covers
+/// road without leaving, and a pass that left and came back covers at
+/// least the radius out and back twice over (five revisit radii in the
+/// kinds evaluation, an event's least span).
+pub const DETOUR_RADII: f64 = 4.0;
+
 /// The loop test for paths that repeat themselves (laps of a circuit): as
 /// [`loop_correct`], but each query pose's nearest match pose is sought
-/// among those at least `gap` of road away from it (`arc`: cumulative
-/// length of the truth), so the ranges may overlap. A claim that poses
-/// 1000-5000 revisit 100-4100 one lap earlier is right when the laps lie on
-/// one another; the trivial match of a part with itself or its neighbourhood
-/// finds no match pose near enough and is wrong.
+/// among those on another pass: at least `gap` of road away from it
+/// (`arc`: cumulative length of the truth), or nearer but with over
+/// [`REVISIT_DETOUR`] times their distance and [`DETOUR_RADII`] times
+/// `radius` of road between, the path having left and come back (a walk out
+/// along a street and back along it); so the ranges may overlap. A claim
+/// that poses 1000-5000 revisit 100-4100 one lap earlier is right when the
+/// laps lie on one another; the trivial match of a part with itself or its
+/// neighbourhood finds no match pose near enough and is wrong.
 pub fn loop_correct_apart(
     claim: &LoopClaim,
     truth: &[Vector3<f64>],
@@ -228,7 +240,9 @@ pub fn loop_correct_apart(
         return false;
     }
     median_nearest(truth, [q0, q1], [m0, m1], |q, m| {
-        (arc[q] - arc[m]).abs() >= gap
+        let road = (arc[q] - arc[m]).abs();
+        let detour = road > REVISIT_DETOUR * (truth[q] - truth[m]).norm();
+        road >= gap || (detour && road > DETOUR_RADII * radius)
     }) <= radius
 }
 
@@ -285,6 +299,30 @@ mod tests {
         assert!(!judge(&claim([100, 300], [95, 305])));
         // Half a lap laid on the other half.
         assert!(!judge(&claim([600, 799], [0, 199])));
+    }
+
+    /// A walk out along a street and back along it, 2 m beside: the way back
+    /// revisits the way out though less than the revisit gap of road lies
+    /// between the poses near the turn (RouteBstd's out-and-back streets,
+    /// rank-1 at 0.00 radii, were judged wrong).
+    #[test]
+    fn a_walk_out_and_back_along_one_street_is_a_loop() {
+        let out = line(200, 0.0);
+        let back: Vec<_> = line(200, 2.0).into_iter().rev().collect();
+        let truth: Vec<_> = out.iter().chain(&back).copied().collect();
+        let arc = crate::revisits::arc_lengths(&truth);
+        let claim = |query, matched| LoopClaim {
+            query,
+            matched,
+            score: 1.0,
+        };
+        // A gap longer than the whole walk: only the detour rule admits.
+        let judge = |c: &LoopClaim| loop_correct_apart(c, &truth, &arc, 3.0, 1000.0);
+        assert!(judge(&claim([200, 399], [0, 199])));
+        assert!(judge(&claim([250, 300], [99, 149])));
+        // A slide along one pass stays a self-match.
+        assert!(!judge(&claim([100, 150], [102, 152])));
+        assert!(!judge(&claim([250, 300], [240, 290])));
     }
 
     fn line(n: usize, y: f64) -> Vec<Vector3<f64>> {

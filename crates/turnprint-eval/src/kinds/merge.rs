@@ -58,6 +58,11 @@ pub struct MergeCase {
     pub b: String,
     /// How B relates to A.
     pub how: How,
+    /// A's poses `[first, last]` in its session's truth (windows; the
+    /// whole session for session pairs).
+    pub a_window: [usize; 2],
+    /// B's poses `[first, last]` in its session, before thinning.
+    pub b_window: [usize; 2],
     /// Poses in A.
     pub a_poses: usize,
     /// Poses in B after thinning.
@@ -109,6 +114,7 @@ pub struct Negative {
 struct Disguised {
     input: Vec<Vector3<f64>>,
     truth: Vec<Vector3<f64>>,
+    window: [usize; 2],
     reversed: bool,
     rate: usize,
     noised: bool,
@@ -119,6 +125,7 @@ fn disguise(
     rng: &mut impl Rng,
     input: &[Vector3<f64>],
     truth: &[Vector3<f64>],
+    window: [usize; 2],
     reversed: bool,
     noised: bool,
 ) -> Disguised {
@@ -142,6 +149,7 @@ fn disguise(
     Disguised {
         input: input.iter().map(|p| sim.apply(p)).collect(),
         truth,
+        window,
         reversed,
         rate,
         noised,
@@ -190,6 +198,7 @@ pub fn window_case(rng: &mut impl Rng, s: &Session, reversed: bool) -> Outcome {
         rng,
         &range(&s.input, b),
         &range(&s.truth, b),
+        b,
         reversed,
         noised,
     );
@@ -197,6 +206,7 @@ pub fn window_case(rng: &mut impl Rng, s: &Session, reversed: bool) -> Outcome {
         s.kind,
         &s.name,
         &range(&s.truth, a),
+        a,
         &s.name,
         b,
         How::Window,
@@ -205,14 +215,24 @@ pub fn window_case(rng: &mut impl Rng, s: &Session, reversed: bool) -> Outcome {
 
 /// Runs the case of session `b` placed into session `a` (one frame).
 pub fn sessions_case(rng: &mut impl Rng, a: &Session, b: &Session, reversed: bool) -> Outcome {
-    let b_cut = disguise(rng, &b.input, &b.truth, reversed, false);
-    run(b.kind, &a.name, &a.truth, &b.name, b_cut, How::Sessions)
+    let whole = |s: &Session| [0, s.truth.len().saturating_sub(1)];
+    let b_cut = disguise(rng, &b.input, &b.truth, whole(b), reversed, false);
+    run(
+        b.kind,
+        &a.name,
+        &a.truth,
+        whole(a),
+        &b.name,
+        b_cut,
+        How::Sessions,
+    )
 }
 
 fn run(
     kind: Kind,
     a_name: &str,
     a: &[Vector3<f64>],
+    a_window: [usize; 2],
     b_name: &str,
     b: Disguised,
     how: How,
@@ -265,6 +285,8 @@ fn run(
         a: a_name.to_string(),
         b: b_name.to_string(),
         how,
+        a_window,
+        b_window: b.window,
         a_poses: a.len(),
         b_poses: b.input.len(),
         reversed: b.reversed,
@@ -312,6 +334,7 @@ pub fn negative_case(
         rng,
         &b.input[bw[0]..=bw[1]],
         &b.truth[bw[0]..=bw[1]],
+        bw,
         reversed,
         false,
     );
