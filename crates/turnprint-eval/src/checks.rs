@@ -278,16 +278,19 @@ fn median_nearest(
 mod tests {
     use super::*;
 
+    fn claim(query: [usize; 2], matched: [usize; 2]) -> LoopClaim {
+        LoopClaim {
+            query,
+            matched,
+            score: 1.0,
+        }
+    }
+
     #[test]
     fn laps_of_a_circuit_are_loops_even_when_their_ranges_overlap() {
         let lap = crate::test_paths::square_loop(0, 0.0);
         let truth: Vec<_> = lap.iter().chain(&lap).chain(&lap).copied().collect();
         let arc = crate::revisits::arc_lengths(&truth);
-        let claim = |query, matched| LoopClaim {
-            query,
-            matched,
-            score: 1.0,
-        };
         let judge = |c: &LoopClaim| loop_correct_apart(c, &truth, &arc, 3.0, 120.0);
         // The second and third laps over the first two, one lap back.
         let laps = claim([400, 1199], [0, 799]);
@@ -311,11 +314,6 @@ mod tests {
         let back: Vec<_> = line(200, 2.0).into_iter().rev().collect();
         let truth: Vec<_> = out.iter().chain(&back).copied().collect();
         let arc = crate::revisits::arc_lengths(&truth);
-        let claim = |query, matched| LoopClaim {
-            query,
-            matched,
-            score: 1.0,
-        };
         // A gap longer than the whole walk: only the detour rule admits.
         let judge = |c: &LoopClaim| loop_correct_apart(c, &truth, &arc, 3.0, 1000.0);
         assert!(judge(&claim([200, 399], [0, 199])));
