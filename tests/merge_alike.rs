@@ -2,7 +2,8 @@
 //! its own pose spacings, widened while its turning falls like wobble), and
 //! their bandwidths end up several times apart in metres. The first match
 //! then finds only look-alikes; matched again smoothed alike
-//! (`pipeline::alike`), the walk is placed.
+//! (`pipeline::alike`), the walk is placed. A walk thinned far enough was
+//! smoothed too wide to be matched at all (`track::smooth`).
 
 mod common;
 
@@ -67,5 +68,61 @@ fn two_apps_on_one_walk_smoothed_apart_were_placed_by_a_look_alike() {
         median < 0.02 * length,
         "median error {median:.1} m over a walk of {length:.0} m (score {:.3})",
         best.score
+    );
+}
+
+/// A walk recorded with a fix every five seconds (the catalogue keeps every
+/// fifth of its 28 130 points): its turning falls like `bandwidth^-0.7` at
+/// every scale, GPS wander and streets alike, so the wobble test widened its
+/// smoothing to 45 pose spacings, 405 m, and matched against its planned
+/// route (a point every 20 m, smoothed over 14 m) it found only
+/// look-alikes (score 0.04). The widening now stops at a quarter of the
+/// road between its right-angle turns (`track::smooth`).
+#[test]
+fn a_walk_thinned_to_a_fix_every_five_seconds_was_smoothed_over_400_m_and_lost_its_route() {
+    let Some(dir) = common::shared_dir(&[
+        "multisession/gpx_same_route/arbatov/RouteBstd.gpx",
+        "multisession/gpx_same_route/arbatov/Evgeny_Arbatov_2023-09-30_14-12-50.GPX",
+    ]) else {
+        return;
+    };
+    let sessions = catalog(&dir).sessions;
+    let find = |name: &str| {
+        sessions
+            .iter()
+            .find(|s| s.name == name)
+            .unwrap_or_else(|| panic!("{name} in the catalog"))
+    };
+    let (route, walk) = (
+        find("arbatov RouteBstd"),
+        find("arbatov Evgeny_Arbatov_2023-09-30_14-12-50"),
+    );
+    // The walk backwards, ten times the size and turned; both in one frame
+    // (east-north-up at the folder's first point), so the truth is the
+    // disguise undone.
+    let scale = 10.0;
+    let b_r_world = Rotation3::from_euler_angles(-0.2, 0.5, 1.0);
+    let truth: Vec<Vector3<f64>> = walk.truth.iter().rev().copied().collect();
+    let disguised: Vec<Vector3<f64>> = truth.iter().map(|p| scale * (b_r_world * p)).collect();
+    let hypotheses = match_paths(
+        &Trajectory::from_positions("route", &route.truth),
+        &Trajectory::from_positions("walk", &disguised),
+        &Config::for_matching(),
+    )
+    .expect("matches");
+    let best = hypotheses.first().expect("a hypothesis");
+    let length: f64 = truth.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    let mut errors: Vec<f64> = disguised
+        .iter()
+        .zip(&truth)
+        .map(|(p, t)| (best.transform(p) - t).norm())
+        .collect();
+    errors.sort_by(f64::total_cmp);
+    let median = errors[errors.len() / 2];
+    assert!(
+        median < 0.02 * length,
+        "median error {median:.0} m over a walk of {length:.0} m (score {:.3}, scale {:.4})",
+        best.score,
+        best.scale
     );
 }

@@ -7,7 +7,8 @@
 //! typical pose spacing: the choice is scale-free. GCV keeps what the poses
 //! follow precisely, a hand's tremor included; the bandwidth is then widened
 //! while the path's total turning falls like wobble's, which no real turn's
-//! does.
+//! does, and past the noise no wider than a quarter of the road between
+//! the path's turns.
 
 use nalgebra::Vector2;
 
@@ -45,6 +46,21 @@ const WOBBLE_TURN_PER_POSE: f64 = 3.0 * std::f64::consts::PI / 180.0;
 /// still follows wobble, not turns: white position noise falls like
 /// `bandwidth^-1.5`, a rounded corner's turning not at all.
 const WOBBLE_SLOPE: f64 = 0.5;
+/// Turning that falls at least like `bandwidth^-1` is still noise: white
+/// position noise falls like `bandwidth^-1.5`, a hand's tremor at 300 Hz
+/// like `bandwidth^-1.6` (TUM fr2/desk); the streets of a walk or of a
+/// planned route like `bandwidth^-0.4` to `^-0.85`, GPS wander alike.
+const NOISE_SLOPE: f64 = 1.0;
+/// Past the noise ([`NOISE_SLOPE`]) the widening stops before the bandwidth
+/// exceeds this share of the road between the smoothed path's right-angle
+/// turns (its length over its turning in quarter turns): two turns that
+/// far apart blur into one once the kernel's ±2 sigma spans the road
+/// between them. Without it a GPS walk, whose turning falls like
+/// `bandwidth^-0.7` at every scale, widened to [`WOBBLE_MAX_STEPS`] pose
+/// spacings whatever its rate: 83 m at a fix a second, 405 m at a fix every
+/// five, and the thinned walk no longer matched its planned route (smoothed
+/// over 14 m; `tests/merge_alike.rs`).
+const TURN_SPACING_SHARE: f64 = 0.25;
 /// The widest bandwidth the wobble test may reach, in pose spacings.
 const WOBBLE_MAX_STEPS: f64 = 64.0;
 /// ... and the fewest of the wider bandwidths the path must still span: the
@@ -95,6 +111,12 @@ impl Smoother {
                 }
                 .turning(chord);
                 if !(wider > 0.0 && (turning / wider).log2() >= WOBBLE_SLOPE) {
+                    break;
+                }
+                // Past the noise, no wider than the turns' own spacing allows.
+                let between_turns = chord.total() * std::f64::consts::FRAC_PI_2 / wider;
+                let noise = (turning / wider).log2() >= NOISE_SLOPE;
+                if !noise && 2.0 * k * chord.typical_step > TURN_SPACING_SHARE * between_turns {
                     break;
                 }
                 k *= 2.0;
