@@ -9,28 +9,59 @@ mod common;
 
 use nalgebra::{Rotation3, Vector3};
 use turnprint::pipeline::{match_paths, Config};
-use turnprint::Trajectory;
-use turnprint_eval::kinds::catalog::catalog;
+use turnprint::{Hypothesis, Trajectory};
+use turnprint_eval::checks::median;
+use turnprint_eval::kinds::catalog::{catalog, Session};
 
-#[test]
-fn two_apps_on_one_walk_smoothed_apart_were_placed_by_a_look_alike() {
-    let Some(dir) = common::shared_dir(&[
-        "multisession/gpx_same_route/routage/Guichet_asc_orux.gpx",
-        "multisession/gpx_same_route/routage/Guichet_asc_suunto.gpx",
-    ]) else {
-        return;
-    };
+/// The two sessions of these names (catalogue names and data files), or
+/// `None` after a line saying the test is skipped.
+fn two_sessions(names: [&str; 2], files: [&str; 2]) -> Option<[Session; 2]> {
+    let dir = common::shared_dir(&files)?;
     let sessions = catalog(&dir).sessions;
-    let find = |name: &str| {
+    Some(names.map(|name| {
         sessions
             .iter()
             .find(|s| s.name == name)
             .unwrap_or_else(|| panic!("{name} in the catalog"))
+            .clone()
+    }))
+}
+
+/// `disguised` (B, whose points are truly at `b_truth`) matched against
+/// `a`: the rank-1 hypothesis, the median distance of B's points mapped by
+/// it from their truth, and B's length.
+fn placed(
+    a: &[Vector3<f64>],
+    disguised: &[Vector3<f64>],
+    b_truth: &[Vector3<f64>],
+) -> (Hypothesis, f64, f64) {
+    let hypotheses = match_paths(
+        &Trajectory::from_positions("a", a),
+        &Trajectory::from_positions("b", disguised),
+        &Config::for_matching(),
+    )
+    .expect("matches");
+    let best = hypotheses.first().expect("a hypothesis").clone();
+    let length: f64 = b_truth.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    let errors: Vec<f64> = disguised
+        .iter()
+        .zip(b_truth)
+        .map(|(p, truth)| (best.transform(p) - truth).norm())
+        .collect();
+    (best, median(&errors), length)
+}
+
+#[test]
+fn two_apps_on_one_walk_smoothed_apart_were_placed_by_a_look_alike() {
+    let Some([a, b]) = two_sessions(
+        ["routage Guichet_asc_orux", "routage Guichet_asc_suunto"],
+        [
+            "multisession/gpx_same_route/routage/Guichet_asc_orux.gpx",
+            "multisession/gpx_same_route/routage/Guichet_asc_suunto.gpx",
+        ],
+    ) else {
+        return;
     };
-    let (a, b) = (
-        find("routage Guichet_asc_orux"),
-        find("routage Guichet_asc_suunto"),
-    );
     // B: every second point of the other app, backwards, 1/50 the size and
     // turned (`b_T_world`); A: the first app's track as it is.
     let scale = 0.02;
@@ -41,23 +72,9 @@ fn two_apps_on_one_walk_smoothed_apart_were_placed_by_a_look_alike() {
         .iter()
         .map(|p| scale * (b_r_world * p) + Vector3::new(3.0, -1.0, 0.5))
         .collect();
-    let hypotheses = match_paths(
-        &Trajectory::from_positions("orux", &a.truth),
-        &Trajectory::from_positions("suunto", &disguised),
-        &Config::for_matching(),
-    )
-    .expect("matches");
-    let best = hypotheses.first().expect("a hypothesis");
+    let (best, median, length) = placed(&a.truth, &disguised, &b_truth);
     // Right: the disguise undone (scale and turn) and B's points where the
     // other app put them, within 2 % of B's length (median).
-    let length: f64 = b_truth.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
-    let mut errors: Vec<f64> = disguised
-        .iter()
-        .zip(&b_truth)
-        .map(|(p, truth)| (best.transform(p) - truth).norm())
-        .collect();
-    errors.sort_by(f64::total_cmp);
-    let median = errors[errors.len() / 2];
     assert!(
         (best.scale * scale - 1.0).abs() < 0.05,
         "scale {} (true {})",
@@ -80,45 +97,25 @@ fn two_apps_on_one_walk_smoothed_apart_were_placed_by_a_look_alike() {
 /// road between its right-angle turns (`track::smooth`).
 #[test]
 fn a_walk_thinned_to_a_fix_every_five_seconds_was_smoothed_over_400_m_and_lost_its_route() {
-    let Some(dir) = common::shared_dir(&[
-        "multisession/gpx_same_route/arbatov/RouteBstd.gpx",
-        "multisession/gpx_same_route/arbatov/Evgeny_Arbatov_2023-09-30_14-12-50.GPX",
-    ]) else {
+    let Some([route, walk]) = two_sessions(
+        [
+            "arbatov RouteBstd",
+            "arbatov Evgeny_Arbatov_2023-09-30_14-12-50",
+        ],
+        [
+            "multisession/gpx_same_route/arbatov/RouteBstd.gpx",
+            "multisession/gpx_same_route/arbatov/Evgeny_Arbatov_2023-09-30_14-12-50.GPX",
+        ],
+    ) else {
         return;
     };
-    let sessions = catalog(&dir).sessions;
-    let find = |name: &str| {
-        sessions
-            .iter()
-            .find(|s| s.name == name)
-            .unwrap_or_else(|| panic!("{name} in the catalog"))
-    };
-    let (route, walk) = (
-        find("arbatov RouteBstd"),
-        find("arbatov Evgeny_Arbatov_2023-09-30_14-12-50"),
-    );
     // The walk backwards, ten times the size and turned; both in one frame
     // (east-north-up at the folder's first point), so the truth is the
     // disguise undone.
-    let scale = 10.0;
     let b_r_world = Rotation3::from_euler_angles(-0.2, 0.5, 1.0);
     let truth: Vec<Vector3<f64>> = walk.truth.iter().rev().copied().collect();
-    let disguised: Vec<Vector3<f64>> = truth.iter().map(|p| scale * (b_r_world * p)).collect();
-    let hypotheses = match_paths(
-        &Trajectory::from_positions("route", &route.truth),
-        &Trajectory::from_positions("walk", &disguised),
-        &Config::for_matching(),
-    )
-    .expect("matches");
-    let best = hypotheses.first().expect("a hypothesis");
-    let length: f64 = truth.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
-    let mut errors: Vec<f64> = disguised
-        .iter()
-        .zip(&truth)
-        .map(|(p, t)| (best.transform(p) - t).norm())
-        .collect();
-    errors.sort_by(f64::total_cmp);
-    let median = errors[errors.len() / 2];
+    let disguised: Vec<Vector3<f64>> = truth.iter().map(|p| 10.0 * (b_r_world * p)).collect();
+    let (best, median, length) = placed(&route.truth, &disguised, &truth);
     assert!(
         median < 0.02 * length,
         "median error {median:.0} m over a walk of {length:.0} m (score {:.3}, scale {:.4})",
