@@ -55,11 +55,11 @@ const NOISE_SLOPE: f64 = 1.0;
 /// exceeds this share of the road between the smoothed path's right-angle
 /// turns (its length over its turning in quarter turns): two turns that
 /// far apart blur into one once the kernel's ±2 sigma spans the road
-/// between them. Without it a GPS walk, whose turning falls like
-/// `bandwidth^-0.7` at every scale, widened to [`WOBBLE_MAX_STEPS`] pose
+/// between them. A GPS walk's turning falls like `bandwidth^-0.7` at every
+/// scale, so the slope test alone takes it to [`WOBBLE_MAX_STEPS`] pose
 /// spacings whatever its rate: 83 m at a fix a second, 405 m at a fix every
-/// five, and the thinned walk no longer matched its planned route (smoothed
-/// over 14 m; `tests/merge_alike.rs`).
+/// five seconds, where the thinned walk no longer matches its planned route
+/// (smoothed over 14 m; `tests/merge_alike.rs`). Here: 83 and 200 m.
 const TURN_SPACING_SHARE: f64 = 0.25;
 /// The widest bandwidth the wobble test may reach, in pose spacings.
 const WOBBLE_MAX_STEPS: f64 = 64.0;
