@@ -110,13 +110,15 @@ impl Smoother {
                     bandwidth: 2.0 * k * chord.typical_step,
                 }
                 .turning(chord);
-                if !(wider > 0.0 && (turning / wider).log2() >= WOBBLE_SLOPE) {
+                let slope = (turning / wider).log2();
+                if !(wider > 0.0 && slope >= WOBBLE_SLOPE) {
                     break;
                 }
                 // Past the noise, no wider than the turns' own spacing allows.
                 let between_turns = chord.total() * std::f64::consts::FRAC_PI_2 / wider;
-                let noise = (turning / wider).log2() >= NOISE_SLOPE;
-                if !noise && 2.0 * k * chord.typical_step > TURN_SPACING_SHARE * between_turns {
+                if slope < NOISE_SLOPE
+                    && 2.0 * k * chord.typical_step > TURN_SPACING_SHARE * between_turns
+                {
                     break;
                 }
                 k *= 2.0;
